@@ -1,0 +1,20 @@
+# Warning and sanitizer flags, attached to targets through an interface library so that nothing
+# leaks into projects that consume sspc.
+add_library(sspc_compile_options INTERFACE)
+target_compile_options(sspc_compile_options INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
+  -Woverloaded-virtual -Wconversion -Wsign-conversion -Wdouble-promotion -Wformat=2
+  -Wimplicit-fallthrough)
+# GCC 12 reports false -Wrestrict positives inside libstdc++'s std::string operator+ at -O3
+# (GCC bug 105329); -Wnull-dereference likewise fires inside <streambuf>. Both stay off there.
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+  target_compile_options(sspc_compile_options INTERFACE -Wno-restrict)
+endif()
+if(SSPC_WERROR)
+  target_compile_options(sspc_compile_options INTERFACE -Werror)
+endif()
+if(SSPC_SANITIZE)
+  target_compile_options(sspc_compile_options INTERFACE
+    -fsanitize=${SSPC_SANITIZE} -fno-omit-frame-pointer -fno-sanitize-recover=all)
+  target_link_options(sspc_compile_options INTERFACE -fsanitize=${SSPC_SANITIZE})
+endif()

@@ -1,0 +1,57 @@
+// Reading and writing point clouds: PLY (ascii, binary little and big endian), XYZ/PTS text,
+// and PCL's PCD (ascii, binary, binary_compressed).
+//
+// Safe on untrusted input: every reader bounds-checks what it reads, never trusts a count in a
+// header beyond what the file's size can hold, rejects NaN and infinite coordinates, and reports
+// the file name with the line (text) or byte offset (binary) of the first problem. Writers go
+// through a temporary file and a rename, so a failed write leaves no partial output.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc {
+
+enum class PointCloudFormat { kAuto, kPly, kXyz, kPcd };
+
+// "ply", "xyz", "pcd" (and "pts", "txt" for xyz); kAuto for anything else.
+PointCloudFormat format_from_extension(const std::filesystem::path& path);
+
+struct ReadOptions {
+  PointCloudFormat format = PointCloudFormat::kAuto;  // kAuto: by extension, else by content
+  Progress* progress = nullptr;
+};
+
+// Reads a point cloud file. An empty cloud is an error (kInvalidArgument): no sspc command
+// has anything to do with one.
+StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
+                                      const ReadOptions& options = {});
+
+// The same readers over bytes in memory; `name` is used in error messages.
+StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name);
+StatusOr<PointCloud> read_xyz(std::span<const std::byte> data, std::string_view name);
+StatusOr<PointCloud> read_pcd(std::span<const std::byte> data, std::string_view name);
+
+enum class PlyEncoding { kBinaryLittleEndian, kBinaryBigEndian, kAscii };
+
+struct PlyWriteOptions {
+  PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian;
+  bool write_normals = true;  // when the cloud has them
+  bool write_colors = true;   // when the cloud has them
+  std::vector<std::string> comments;
+};
+
+// Writes PLY atomically (temporary file, then rename).
+Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
+                 const PlyWriteOptions& options = {});
+// The PLY bytes, for tests and in-memory use.
+std::string encode_ply(const PointCloud& cloud, const PlyWriteOptions& options = {});
+
+}  // namespace sspc

@@ -1,0 +1,57 @@
+// Distortion metrics between a reference cloud and a test cloud (SPEC step 11, paper §6), and
+// MPEG's D1/D2 PSNR as its metric software (pc_error) defines them. Formulas and sources are in
+// docs/METRICS.md.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc {
+
+struct EvalOptions {
+  std::optional<double> peak;   // MPEG PSNR peak; default: REF's bounding-box diagonal
+  Progress* progress = nullptr;
+};
+
+// One direction A→B: over A's points, the distance to the nearest point of B.
+struct DirectedError {
+  double rms = 0;          // sqrt(mean d²), d point-to-point
+  double hausdorff = 0;    // max d
+  double mse_d1 = 0;       // mean d² (point-to-point)
+  double mse_d2 = 0;       // mean of the error projected on the normal (point-to-plane)
+  bool has_d2 = false;
+};
+
+struct EvalReport {
+  std::uint64_t ref_points = 0;
+  std::uint64_t test_points = 0;
+  double ref_diagonal = 0;           // d_B, bounding-box diagonal of REF
+  double peak = 0;                   // the peak used for D1/D2
+  DirectedError ref_to_test;
+  DirectedError test_to_ref;
+  double rms_max = 0;                // max of the two RMS
+  double hausdorff = 0;              // symmetric Hausdorff distance
+  double psnr_paper = 0;             // 20 log10(d_B / rms_max); +inf when identical
+  double d1_mse = 0;                 // max of the two directions' D1 MSE
+  double d1_psnr = 0;                // 10 log10(3 peak² / d1_mse) as pc_error computes it
+  bool has_d2 = false;               // REF has normals
+  double d2_mse = 0;
+  double d2_psnr = 0;
+  bool has_normal_error = false;     // both clouds have normals
+  double normal_angle_mean_deg = 0;  // over TEST's points vs their nearest REF point's normal
+  double normal_angle_p95_deg = 0;
+};
+
+StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
+                              const EvalOptions& options = {});
+
+// Bits per point of a compressed file of `file_bytes` bytes for a cloud of `points` points.
+inline double bits_per_point(std::uint64_t file_bytes, std::uint64_t points) {
+  return points == 0 ? 0.0 : 8.0 * static_cast<double>(file_bytes) / static_cast<double>(points);
+}
+
+}  // namespace sspc
