@@ -1,1 +1,53 @@
-int main() { return 0; }
+// sspc: compress scanned point clouds by self-similarity, decode any part, ray-trace them.
+//
+// Each subcommand lives in its own cmd_*.cpp; this file wires them together, applies the global
+// options (--threads, --quiet) and maps outcomes to exit codes: 0 success, 1 failure, 2 usage.
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+#include "command.hpp"
+
+int main(int argc, char** argv) {
+  using namespace sspc::cli;
+  CLI::App app("sspc: self-similarity compression and ray tracing of scanned point clouds");
+  app.set_version_flag("--version", std::string("sspc ") + SSPC_VERSION);
+  app.require_subcommand(1);
+  app.fallthrough();  // global options are accepted after the subcommand too
+  app.get_formatter()->column_width(34);
+
+  GlobalOptions global;
+  app.add_option("--threads", global.threads, "Worker threads (0: all cores)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  app.add_flag("-q,--quiet", global.quiet, "No progress display, even on a terminal");
+
+  std::vector<Command> commands;
+  commands.push_back(add_info_command(app, global));
+  commands.push_back(add_normals_command(app, global));
+  commands.push_back(add_eval_command(app, global));
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints help, version, or the error
+    return code == 0 ? kExitOk : kExitUsage;
+  }
+
+  std::unique_ptr<tbb::global_control> threads;
+  if (global.threads > 0) {
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(global.threads));
+  }
+  for (const Command& command : commands) {
+    if (command.app->parsed()) {
+      const int code = command.run();
+      std::fflush(stdout);
+      return code;
+    }
+  }
+  return kExitUsage;
+}

@@ -1,0 +1,113 @@
+// sspc normals IN OUT: give a point cloud consistently oriented unit normals (SPEC step 2).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "command.hpp"
+#include "json_writer.hpp"
+#include "sspc/io.hpp"
+#include "sspc/normals.hpp"
+
+namespace sspc::cli {
+namespace {
+
+struct NormalsOptions {
+  std::string input;
+  std::string output;
+  NormalMode mode = NormalMode::kEstimate;
+  int k = 16;
+  std::string viewpoint;
+  bool ascii = false;
+  bool force = false;
+  bool json = false;
+};
+
+int run_normals(const NormalsOptions& options, const GlobalOptions& global) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(options.input, options.output, ec)) {
+    return report_failure(invalid_argument(options.output + ": refusing to overwrite the input"));
+  }
+  if (!options.force && std::filesystem::exists(options.output)) {
+    return report_failure(
+        invalid_argument(options.output + ": exists; pass --force to overwrite it"));
+  }
+  auto progress = make_progress(global);
+  const auto t0 = std::chrono::steady_clock::now();
+  ReadOptions read_options;
+  read_options.progress = progress.get();
+  auto cloud = read_point_cloud(options.input, read_options);
+  if (!cloud.ok()) return report_failure(cloud.status());
+  const bool had_normals = cloud->has_normals();
+  const auto t1 = std::chrono::steady_clock::now();
+
+  NormalOptions normal_options;
+  normal_options.mode = options.mode;
+  normal_options.k = options.k;
+  normal_options.viewpoint = parse_vec3(options.viewpoint);
+  normal_options.progress = progress.get();
+  Status status = ensure_normals(*cloud, normal_options);
+  if (!status.ok()) return report_failure(status.with_context(options.input));
+  const auto t2 = std::chrono::steady_clock::now();
+
+  PlyWriteOptions write_options;
+  write_options.encoding = options.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
+  status = write_ply(*cloud, options.output, write_options);
+  if (!status.ok()) return report_failure(status);
+  const auto t3 = std::chrono::steady_clock::now();
+
+  const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
+  const bool estimated = options.mode == NormalMode::kEstimate ||
+                         (options.mode == NormalMode::kAuto && !had_normals);
+  const double normal_seconds = seconds(t1, t2);
+  const double rate = normal_seconds > 0 ? static_cast<double>(cloud->size()) / normal_seconds : 0;
+  if (options.json) {
+    JsonWriter json;
+    json.begin_object()
+        .field("input", options.input)
+        .field("output", options.output)
+        .field("points", static_cast<std::uint64_t>(cloud->size()))
+        .field("estimated", estimated)
+        .field("k", options.k)
+        .field("read_seconds", seconds(t0, t1))
+        .field("normals_seconds", normal_seconds)
+        .field("normals_points_per_second", rate)
+        .field("write_seconds", seconds(t2, t3))
+        .end_object();
+    print_line(json.str());
+  } else {
+    std::printf("%s: %zu points, normals %s in %.3f s (%.3g points/s), written to %s\n",
+                options.input.c_str(), cloud->size(), estimated ? "estimated" : "kept",
+                normal_seconds, rate, options.output.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+Command add_normals_command(CLI::App& root, const GlobalOptions& global) {
+  auto options = std::make_shared<NormalsOptions>();
+  CLI::App* app = root.add_subcommand(
+      "normals", "Estimate and orient normals (PCA over k neighbours, Hoppe MST orientation)");
+  app->add_option("input", options->input, "Point cloud to read")->required()->check(CLI::ExistingFile);
+  app->add_option("output", options->output, "PLY file to write")->required();
+  const std::map<std::string, NormalMode> modes{
+      {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
+  app->add_option("--normals", options->mode,
+                  "auto: keep the file's normals if any; keep: require them; estimate: recompute")
+      ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case))
+      ->default_str("estimate");
+  app->add_option("-k,--neighbors", options->k, "Neighbours for the PCA")
+      ->check(CLI::Range(3, 256))
+      ->capture_default_str();
+  app->add_option("--viewpoint", options->viewpoint,
+                  "Orient normals towards this point (scanner position) instead of propagating")
+      ->check(kVec3Validator);
+  app->add_flag("--ascii", options->ascii, "Write ascii PLY (default: binary little-endian)");
+  app->add_flag("-f,--force", options->force, "Overwrite an existing output file");
+  app->add_flag("--json", options->json, "Machine-readable statistics on stdout");
+  return {app, [options, &global] { return run_normals(*options, global); }};
+}
+
+}  // namespace sspc::cli

@@ -1,0 +1,47 @@
+// What every sspc subcommand shares: global options, exit codes, error printing, progress.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc::cli {
+
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
+
+struct GlobalOptions {
+  int threads = 0;     // 0: all cores
+  bool quiet = false;  // no progress even on a terminal
+};
+
+// A registered subcommand: its CLI11 node and what runs when it was chosen.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+Command add_info_command(CLI::App& root, const GlobalOptions& global);
+Command add_normals_command(CLI::App& root, const GlobalOptions& global);
+Command add_eval_command(CLI::App& root, const GlobalOptions& global);
+
+// Prints "sspc: error: ..." on stderr and returns kExitFailure.
+int report_failure(const Status& status);
+
+// A progress reporter that draws on stderr only when it is a terminal and --quiet is off.
+std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);
+
+// Prints `text` and a newline to stdout.
+void print_line(const std::string& text);
+
+// A CLI11 validator for "x,y,z" triples and its parser.
+std::optional<Vec3f> parse_vec3(const std::string& text);
+extern const CLI::Validator kVec3Validator;
+
+}  // namespace sspc::cli
