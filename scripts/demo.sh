@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The main job on the bundled sample (data/bunny.ply): install, build, then read the cloud,
+# estimate and orient normals, and evaluate the result against the original.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install_deps.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSSPC_BUILD_TESTS=OFF -DSSPC_BUILD_BENCH=OFF
+cmake --build build -j "$(nproc)"
+mkdir -p out
+set -x
+build/sspc info data/bunny.ply
+build/sspc normals data/bunny.ply out/bunny_normals.ply --normals estimate --force
+build/sspc eval data/bunny.ply out/bunny_normals.ply
