@@ -149,16 +149,13 @@ Command add_eval_command(CLI::App& root, const GlobalOptions& global) {
   CLI::App* app = root.add_subcommand(
       "eval", "Distortion of TEST against REF: RMS, Hausdorff, PSNR (paper), MPEG D1/D2 PSNR");
   app->add_option("ref", options->ref, "Reference (original) point cloud")
-      ->required()
-      ->check(CLI::ExistingFile);
+      ->required();
   app->add_option("test", options->test, "Test (decoded) point cloud")
-      ->required()
-      ->check(CLI::ExistingFile);
+      ->required();
   app->add_option("--peak", options->peak,
                   "Peak for D1/D2 PSNR (default: REF's bounding-box diagonal)");
   app->add_option("--compressed", options->compressed,
-                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)")
-      ->check(CLI::ExistingFile);
+                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)");
   app->add_flag("!--no-estimate-normals", options->estimate_ref_normals,
                 "Skip D2 when REF has no normals instead of estimating them");
   app->add_flag("--json", options->json, "Machine-readable output on stdout");

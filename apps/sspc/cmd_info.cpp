@@ -87,8 +87,7 @@ Command add_info_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* app = root.add_subcommand("info", "Describe a point cloud: points, attributes, bounds, spacing");
   app->add_option("file", options->input, "Point cloud (.ply, .xyz/.pts, .pcd)")
-      ->required()
-      ->check(CLI::ExistingFile);
+      ->required();
   app->add_flag("--json", options->json, "Machine-readable output on stdout");
   return {app, [options, &global] { return run_info(*options, global); }};
 }

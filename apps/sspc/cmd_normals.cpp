@@ -90,7 +90,7 @@ Command add_normals_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<NormalsOptions>();
   CLI::App* app = root.add_subcommand(
       "normals", "Estimate and orient normals (PCA over k neighbours, Hoppe MST orientation)");
-  app->add_option("input", options->input, "Point cloud to read")->required()->check(CLI::ExistingFile);
+  app->add_option("input", options->input, "Point cloud to read")->required();
   app->add_option("output", options->output, "PLY file to write")->required();
   const std::map<std::string, NormalMode> modes{
       {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
