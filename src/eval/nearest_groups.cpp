@@ -1,0 +1,84 @@
+// Equidistant nearest-neighbour groups (docs/METRICS.md, "Equidistant neighbours"; the grouping
+// follows mpeg-pcc-dmetric's findMetric/scaleNormals, the equality test does not).
+#include "eval/nearest_groups.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "core/parallel.hpp"
+
+namespace sspc::eval {
+
+namespace {
+
+// The tree's float distances decide only how many candidates to fetch; membership is decided in
+// double afterwards. Two squared distances that are equal in double differ in float by a few
+// ulps (≈1e-7 relative) at most, so any candidate within this factor of the float minimum may
+// still tie and the search widens until the last candidate is clearly farther.
+constexpr float kFloatSlack = 1e-5f;
+
+// Queries per work chunk: fixed, so that the order of `extra` does not depend on scheduling.
+constexpr std::size_t kChunk = 4096;
+
+double squared_distance(const Vec3f& a, const Vec3f& b) {
+  // The difference of two floats is exact in double (barring exponents 29 binades apart), so
+  // this is the distance between the stored points rounded once per operation in double.
+  return (a.cast<double>() - b.cast<double>()).squaredNorm();
+}
+
+}  // namespace
+
+NearestGroups find_nearest_groups(const KdTree3& tree, std::span<const Vec3f> queries,
+                                  Progress* progress) {
+  NearestGroups groups;
+  groups.nearest.assign(queries.size(), 0);
+  groups.distance_squared.assign(queries.size(), 0.0);
+  const std::size_t chunks = (queries.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> chunk_extra(chunks);
+  const std::size_t n = tree.size();
+  const std::span<const Vec3f> points = tree.points();
+
+  parallel_for(0, chunks, 1, [&](std::size_t c) {
+    const std::size_t begin = c * kChunk;
+    const std::size_t end = std::min(queries.size(), begin + kChunk);
+    std::vector<std::uint32_t> idx;
+    std::vector<float> d2f;
+    std::vector<std::uint32_t> members;
+    for (std::size_t q = begin; q < end; ++q) {
+      const Vec3f& p = queries[q];
+      // Two candidates settle almost every query: the second is clearly farther than the first.
+      std::size_t k = std::min<std::size_t>(2, n);
+      std::size_t found = 0;
+      for (;;) {
+        idx.resize(k);
+        d2f.resize(k);
+        found = tree.knn(p, k, idx.data(), d2f.data());
+        if (found == n || d2f[found - 1] > d2f[0] + d2f[0] * kFloatSlack) break;
+        k = std::min(k * 4, n);
+      }
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t j = 0; j < found; ++j) best = std::min(best, squared_distance(p, points[idx[j]]));
+      const double limit = best + best * kTieRelativeTolerance;
+      members.clear();
+      for (std::size_t j = 0; j < found; ++j) {
+        if (squared_distance(p, points[idx[j]]) <= limit) members.push_back(idx[j]);
+      }
+      // Lowest index first: the group's order then depends on the data alone, not on the tree.
+      std::sort(members.begin(), members.end());
+      groups.nearest[q] = members.front();
+      groups.distance_squared[q] = best;
+      for (std::size_t j = 1; j < members.size(); ++j) {
+        chunk_extra[c].emplace_back(static_cast<std::uint32_t>(q), members[j]);
+      }
+    }
+    progress_advance(progress, end - begin);
+  });
+
+  std::size_t total = 0;
+  for (const auto& e : chunk_extra) total += e.size();
+  groups.extra.reserve(total);
+  for (const auto& e : chunk_extra) groups.extra.insert(groups.extra.end(), e.begin(), e.end());
+  return groups;
+}
+
+}  // namespace sspc::eval
