@@ -1,6 +1,8 @@
 // Neighbour search: one thin wrapper over nanoflann's k-d tree, used everywhere in sspc.
 //
-// Safe to query from many threads at once once built. The tree keeps a pointer to the points,
+// Answers do not depend on the tree's shape: among equidistant points the lower index comes
+// first (and is kept when only some of them fit in k), and radius queries include the boundary.
+// Safe to query from many threads at once once built. A tree keeps a pointer to its points,
 // which must outlive it and must not move.
 #pragma once
 
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
 
 namespace sspc {
 
@@ -25,11 +28,13 @@ struct Neighbor {
 // sorted by distance (fewer than k only when the cloud has fewer points; `count[i]` says).
 struct KnnTable {
   std::size_t k = 0;
-  std::vector<std::uint32_t> indices;   // queries × k
-  std::vector<float> distances_squared; // queries × k
-  std::vector<std::uint32_t> count;     // per query
+  std::vector<std::uint32_t> indices;    // queries × k
+  std::vector<float> distances_squared;  // queries × k
+  std::vector<std::uint32_t> count;      // per query
 
-  std::span<const std::uint32_t> row(std::size_t i) const { return {indices.data() + i * k, count[i]}; }
+  std::span<const std::uint32_t> row(std::size_t i) const {
+    return {indices.data() + i * k, count[i]};
+  }
   std::span<const float> row_distances(std::size_t i) const {
     return {distances_squared.data() + i * k, count[i]};
   }
@@ -45,7 +50,8 @@ class KdTree3 {
   std::size_t size() const { return points_.size(); }
   std::span<const Vec3f> points() const { return points_; }
 
-  // The k nearest points to `query`, closest first. Returns how many were found (≤ k).
+  // The k nearest points to `query`, closest first (ties: lower index first). Returns how many
+  // were found: min(k, size()).
   std::size_t knn(const Vec3f& query, std::size_t k, std::uint32_t* indices,
                   float* distances_squared) const;
   // Convenience overload filling vectors.
@@ -54,13 +60,16 @@ class KdTree3 {
   // The nearest point; its squared distance in `distance_squared`. Requires a non-empty tree.
   std::uint32_t nearest(const Vec3f& query, float* distance_squared) const;
 
-  // Every point within `radius` (not squared) of `query`, sorted by distance when `sorted`.
+  // Every point within `radius` (not squared, boundary included: d² ≤ radius²) of `query`,
+  // sorted by distance and then index when `sorted`.
   std::size_t radius(const Vec3f& query, float radius, std::vector<Neighbor>& out,
                      bool sorted = true) const;
 
   // k nearest neighbours of every query, in parallel. `exclude_self`: queries are the tree's own
   // points and each one's own index is dropped from its row (k neighbours besides itself).
-  KnnTable knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self = false) const;
+  // Advances `progress` (when given) by the number of queries answered; the caller owns the stage.
+  KnnTable knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self = false,
+                     Progress* progress = nullptr) const;
 
  private:
   struct Impl;

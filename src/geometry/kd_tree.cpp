@@ -1,14 +1,17 @@
 // KdTree3: sspc's one neighbour-search structure, a thin layer over nanoflann's static k-d tree.
 //
 // nanoflann gives single-query k-NN and radius search; this file adds what every caller would
-// otherwise repeat: parallel batched k-NN with self-exclusion, and the nominal spacing.
+// otherwise repeat: answers that do not depend on the tree's shape (ties broken by index, the
+// radius inclusive), parallel batched k-NN with self-exclusion, and the nominal spacing.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include <nanoflann.hpp>
 
 #include "core/parallel.hpp"
+#include "geometry/knn_result_set.hpp"
 #include "sspc/neighbors.hpp"
 
 namespace sspc {
@@ -30,6 +33,35 @@ struct PointsAdaptor {
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PointsAdaptor>,
                                                  PointsAdaptor, 3, std::uint32_t>;
 
+// Collects the points with squared distance ≤ r² exactly. nanoflann's own radius set keeps
+// d² < r² and may prune a few ulps early, so it searches a slightly larger ball and this set
+// applies the exact test, the same one a brute-force scan makes.
+class InclusiveRadiusResultSet {
+ public:
+  InclusiveRadiusResultSet(float radius_squared, std::vector<Neighbor>& out)
+      : radius_squared_(radius_squared),
+        search_bound_(std::nextafter(radius_squared + radius_squared * 1e-5f,
+                                     std::numeric_limits<float>::infinity())),
+        out_(out) {}
+  std::size_t size() const { return out_.size(); }
+  bool full() const { return true; }
+  bool addPoint(float distance_squared, std::uint32_t index) {
+    if (distance_squared <= radius_squared_) out_.push_back({index, distance_squared});
+    return true;
+  }
+  float worstDist() const { return search_bound_; }
+
+ private:
+  float radius_squared_;
+  float search_bound_;
+  std::vector<Neighbor>& out_;
+};
+
+bool neighbor_before(const Neighbor& a, const Neighbor& b) {
+  return a.distance_squared < b.distance_squared ||
+         (a.distance_squared == b.distance_squared && a.index < b.index);
+}
+
 }  // namespace
 
 struct KdTree3::Impl {
@@ -49,7 +81,10 @@ KdTree3& KdTree3::operator=(KdTree3&&) noexcept = default;
 std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::uint32_t* indices,
                          float* distances_squared) const {
   if (k == 0 || points_.empty()) return 0;
-  return impl_->tree.knnSearch(query.data(), k, indices, distances_squared);
+  k = std::min(k, points_.size());
+  detail::CanonicalKnnResultSet<float> result(k, indices, distances_squared);
+  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  return result.size();
 }
 
 std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::vector<Neighbor>& out) const {
@@ -58,7 +93,7 @@ std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::vector<Neighbor
   k = std::min(k, points_.size());
   std::vector<std::uint32_t> idx(k);
   std::vector<float> d2(k);
-  const std::size_t n = impl_->tree.knnSearch(query.data(), k, idx.data(), d2.data());
+  const std::size_t n = knn(query, k, idx.data(), d2.data());
   out.reserve(n);
   for (std::size_t i = 0; i < n; ++i) out.push_back({idx[i], d2[i]});
   return n;
@@ -67,7 +102,7 @@ std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::vector<Neighbor
 std::uint32_t KdTree3::nearest(const Vec3f& query, float* distance_squared) const {
   std::uint32_t index = 0;
   float d2 = 0;
-  impl_->tree.knnSearch(query.data(), 1, &index, &d2);
+  knn(query, 1, &index, &d2);
   if (distance_squared != nullptr) *distance_squared = d2;
   return index;
 }
@@ -76,24 +111,15 @@ std::size_t KdTree3::radius(const Vec3f& query, float r, std::vector<Neighbor>& 
                             bool sorted) const {
   out.clear();
   if (points_.empty() || !(r >= 0)) return 0;
-  std::vector<std::pair<std::uint32_t, float>> matches;
-  nanoflann::SearchParams params;
-  params.sorted = sorted;
-  impl_->tree.radiusSearch(query.data(), r * r, matches, params);
-  out.reserve(matches.size());
-  for (const auto& [i, d2] : matches) out.push_back({i, d2});
-  if (sorted) {
-    // nanoflann sorts by distance only; break ties by index so results are reproducible.
-    std::stable_sort(out.begin(), out.end(), [](const Neighbor& a, const Neighbor& b) {
-      return a.distance_squared < b.distance_squared ||
-             (a.distance_squared == b.distance_squared && a.index < b.index);
-    });
-  }
+  InclusiveRadiusResultSet result(r * r, out);
+  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  // Sorted by distance, then index, so that results are reproducible.
+  if (sorted) std::sort(out.begin(), out.end(), neighbor_before);
   return out.size();
 }
 
-KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k,
-                            bool exclude_self) const {
+KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self,
+                            Progress* progress) const {
   KnnTable table;
   table.k = k;
   table.indices.assign(queries.size() * k, 0);
@@ -105,7 +131,7 @@ KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k,
     std::vector<std::uint32_t> idx(ask);
     std::vector<float> d2(ask);
     for (std::size_t q = begin; q < end; ++q) {
-      const std::size_t found = impl_->tree.knnSearch(queries[q].data(), ask, idx.data(), d2.data());
+      const std::size_t found = knn(queries[q], ask, idx.data(), d2.data());
       std::uint32_t* out_i = table.indices.data() + q * k;
       float* out_d = table.distances_squared.data() + q * k;
       std::size_t n = 0;
@@ -117,6 +143,7 @@ KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k,
       }
       table.count[q] = static_cast<std::uint32_t>(n);
     }
+    progress_advance(progress, end - begin);
   });
   return table;
 }
