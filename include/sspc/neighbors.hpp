@@ -1,4 +1,6 @@
-// Neighbour search: one thin wrapper over nanoflann's k-d tree, used everywhere in sspc.
+// Neighbour search: thin wrappers over nanoflann's k-d tree, used everywhere in sspc. KdTree3
+// searches 3-D points in the Euclidean metric; KdTreeL1 searches descriptor vectors of any
+// dimension in the L1 metric (the code book's match distance, SPEC step 7).
 //
 // Answers do not depend on the tree's shape: among equidistant points the lower index comes
 // first (and is kept when only some of them fit in k), and radius queries include the boundary.
@@ -74,6 +76,49 @@ class KdTree3 {
  private:
   struct Impl;
   std::span<const Vec3f> points_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// One neighbour in the L1 metric: the item's index and its L1 distance to the query.
+struct L1Neighbor {
+  std::uint32_t index;
+  float distance;
+};
+
+// The L1 distance Σ|a_i − b_i| as KdTreeL1 measures it: summed in float in index order, so
+// that a caller's own test against a radius agrees with the tree's to the last bit.
+float l1_distance(const float* a, const float* b, std::size_t dimension);
+
+// A k-d tree over `rows` vectors of `dimension` floats each, stored row-major in `data`
+// (data.size() == rows × dimension). Built for the code book's "every descriptor within L1
+// radius ε of this one".
+class KdTreeL1 {
+ public:
+  // `data.size()` must be a multiple of `dimension` (≥ 1); a trailing partial row is ignored.
+  KdTreeL1(std::span<const float> data, std::size_t dimension, std::size_t leaf_size = 16);
+  ~KdTreeL1();
+  KdTreeL1(KdTreeL1&&) noexcept;
+  KdTreeL1& operator=(KdTreeL1&&) noexcept;
+
+  std::size_t size() const { return rows_; }
+  std::size_t dimension() const { return dimension_; }
+  std::span<const float> row(std::size_t i) const {
+    return data_.subspan(i * dimension_, dimension_);
+  }
+
+  // Every item whose l1_distance to `query` (dimension() floats) is ≤ `radius`: the radius is a
+  // plain L1 distance, not squared. Sorted by distance, then index. Returns out.size().
+  std::size_t radius(std::span<const float> query, float radius,
+                     std::vector<L1Neighbor>& out) const;
+
+  // The k nearest items in L1, closest first (ties: lower index first). Returns out.size().
+  std::size_t knn(std::span<const float> query, std::size_t k, std::vector<L1Neighbor>& out) const;
+
+ private:
+  struct Impl;
+  std::span<const float> data_;
+  std::size_t dimension_ = 0;
+  std::size_t rows_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 
