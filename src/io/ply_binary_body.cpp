@@ -1,0 +1,239 @@
+// Binary PLY bodies (binary_little_endian and binary_big_endian; Turk's PLY description).
+//
+// The common layout, a vertex element without list properties, has a fixed stride: its whole
+// block is bounds-checked once and then decoded in parallel, with a memcpy per point where the
+// file's floats already have the host's byte order. Elements with list properties (faces) are
+// walked item by item through the ByteReader.
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "core/byte_reader.hpp"
+#include "core/parallel.hpp"
+#include "io/ply_body.hpp"
+#include "io/reader_common.hpp"
+#include "io/strided_fields.hpp"
+#include "io/text_scanner.hpp"
+
+namespace sspc::io {
+
+namespace {
+
+class BinaryBodyReader {
+ public:
+  BinaryBodyReader(std::span<const std::byte> file, const PlyHeader& header,
+                   const PlyVertexLayout& layout, std::string_view name, Progress* progress)
+      : header_(header),
+        layout_(layout),
+        name_(name),
+        progress_(progress),
+        endian_(header.format == PlyFormat::kBinaryBigEndian ? Endian::kBig : Endian::kLittle),
+        reader_(file.subspan(std::min(header.body_offset, file.size())), header.body_offset) {}
+
+  Status read(PointCloud& cloud) {
+    progress_advance(progress_, header_.body_offset);
+    for (std::size_t e = 0; e < header_.elements.size(); ++e) {
+      const std::size_t before = reader_.offset();
+      if (e == layout_.element) {
+        SSPC_RETURN_IF_ERROR(read_vertices(cloud));
+      } else {
+        SSPC_RETURN_IF_ERROR(skip_element(header_.elements[e]));
+        progress_advance(progress_, reader_.offset() - before);
+      }
+    }
+    progress_advance(progress_, reader_.remaining());  // trailing bytes, ignored
+    return Status();
+  }
+
+ private:
+  Status item_error(const PlyElement& element, std::uint64_t item, const Status& s) const {
+    return in_file(
+        s.with_context("element " + quote_token(element.name) + " item " + std::to_string(item)),
+        name_);
+  }
+
+  // An item of an element with list properties: its size is only known by reading the counts.
+  Status skip_variable_item(const PlyElement& element) {
+    for (const PlyProperty& p : element.properties) {
+      if (!p.is_list) {
+        SSPC_RETURN_IF_ERROR(reader_.skip(scalar_size(p.type)));
+        continue;
+      }
+      SSPC_ASSIGN_OR_RETURN(const std::uint64_t n, read_list_count(p));
+      SSPC_RETURN_IF_ERROR(reader_.skip_items(n, scalar_size(p.type)));
+    }
+    return Status();
+  }
+
+  StatusOr<std::uint64_t> read_list_count(const PlyProperty& p) {
+    const std::size_t at = reader_.offset();
+    if (!reader_.can_read(scalar_size(p.count_type))) {
+      return reader_.overrun(scalar_size(p.count_type));
+    }
+    const std::optional<std::uint64_t> n = load_count(reader_.current(), p.count_type, endian_);
+    if (!n) {
+      return corrupt("byte offset " + std::to_string(at) + ": list " + quote_token(p.name) +
+                     " has a negative length");
+    }
+    SSPC_RETURN_IF_ERROR(reader_.skip(scalar_size(p.count_type)));
+    return *n;
+  }
+
+  Status skip_element(const PlyElement& element) {
+    if (const auto stride = element.fixed_stride()) {
+      const Status s = reader_.skip_items(element.count, *stride);
+      if (!s.ok()) {
+        return in_file(s.with_context("element " + quote_token(element.name) + " (" +
+                                      std::to_string(element.count) + " items of " +
+                                      std::to_string(*stride) + " bytes)"),
+                       name_);
+      }
+      return Status();
+    }
+    // Each item holds at least one list count, so a hostile count runs out of bytes within
+    // remaining() iterations.
+    for (std::uint64_t i = 0; i < element.count; ++i) {
+      const Status s = skip_variable_item(element);
+      if (!s.ok()) return item_error(element, i, s);
+    }
+    return Status();
+  }
+
+  // Smallest number of bytes an item can occupy (lists of length 0).
+  static std::size_t min_item_size(const PlyElement& element) {
+    std::size_t n = 0;
+    for (const PlyProperty& p : element.properties) {
+      n += scalar_size(p.is_list ? p.count_type : p.type);
+    }
+    return n;
+  }
+
+  Status check_count_fits(const PlyElement& element, std::size_t item_size) const {
+    // x, y and z exist, so item_size > 0.
+    if (element.count > reader_.remaining() / item_size) {
+      return error_at_offset(StatusCode::kCorrupt, name_, reader_.offset(),
+                             "element 'vertex' declares " + std::to_string(element.count) +
+                                 " items of at least " + std::to_string(item_size) +
+                                 " bytes, but only " + std::to_string(reader_.remaining()) +
+                                 " bytes remain (the file is truncated or the count is wrong)");
+    }
+    return Status();
+  }
+
+  Status read_vertices(PointCloud& cloud) {
+    const PlyElement& vertex = header_.elements[layout_.element];
+    if (const auto stride = vertex.fixed_stride())
+      return read_fixed_vertices(vertex, *stride, cloud);
+    return read_variable_vertices(vertex, cloud);
+  }
+
+  // The three properties feeding slots first..first+2 as fields of a record of `stride` bytes.
+  void fields(PlySlot first, const std::vector<std::size_t>& offsets, std::size_t stride,
+              StridedField (&out)[3]) const {
+    const PlyElement& vertex = header_.elements[layout_.element];
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::size_t p = *layout_.property[first + k];
+      out[k] = StridedField{offsets[p], stride, vertex.properties[p].type};
+    }
+  }
+
+  Status read_fixed_vertices(const PlyElement& vertex, std::size_t stride, PointCloud& cloud) {
+    SSPC_RETURN_IF_ERROR(check_count_fits(vertex, stride));
+    const auto n = static_cast<std::size_t>(vertex.count);  // fits: n * stride <= remaining()
+    std::vector<std::size_t> offsets(vertex.properties.size());
+    for (std::size_t p = 0, off = 0; p < vertex.properties.size(); ++p) {
+      offsets[p] = off;
+      off += scalar_size(vertex.properties[p].type);
+    }
+    StridedField pos[3], nrm[3], col[3];
+    fields(kX, offsets, stride, pos);
+    if (layout_.normals) fields(kNx, offsets, stride, nrm);
+    if (layout_.colors) fields(kRed, offsets, stride, col);
+
+    cloud.positions.resize(n);
+    if (layout_.normals) cloud.normals.resize(n);
+    if (layout_.colors) cloud.colors.resize(n);
+    const std::byte* block = reader_.current();
+    const std::size_t block_offset = reader_.offset();
+    // Chunks of a few hundred kilobytes: large enough to amortise scheduling, small enough for
+    // the progress line to move and for both cores to get work on small files.
+    const std::size_t grain = std::max<std::size_t>(1, (std::size_t{1} << 19) / stride);
+    parallel_for_ranges(0, n, grain, [&](std::size_t b, std::size_t e) {
+      decode_vec3(block, pos, endian_, b, e, cloud.positions.data());
+      if (layout_.normals) decode_vec3(block, nrm, endian_, b, e, cloud.normals.data());
+      if (layout_.colors) decode_rgb_channels(block, col, endian_, b, e, cloud.colors.data());
+      progress_advance(progress_, (e - b) * stride);
+    });
+    SSPC_RETURN_IF_ERROR(reader_.skip(n * stride));
+
+    if (const auto bad = first_non_finite_point(cloud)) {
+      return non_finite_error(name_, cloud, *bad,
+                              "byte offset " + std::to_string(block_offset + *bad * stride));
+    }
+    return Status();
+  }
+
+  // Vertices with a list property (rare: some tools attach texture coordinates or neighbour
+  // lists to vertices). Sequential; each item is bounds-checked as it is read.
+  Status read_variable_vertices(const PlyElement& vertex, PointCloud& cloud) {
+    SSPC_RETURN_IF_ERROR(check_count_fits(vertex, min_item_size(vertex)));
+    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colors);
+    const std::size_t start = reader_.offset();
+    for (std::uint64_t i = 0; i < vertex.count; ++i) {
+      const std::size_t item_offset = reader_.offset();
+      double v[kSlotCount] = {};
+      for (std::size_t p = 0; p < vertex.properties.size(); ++p) {
+        const PlyProperty& prop = vertex.properties[p];
+        Status s;
+        if (prop.is_list) {
+          StatusOr<std::uint64_t> len = read_list_count(prop);
+          s = len.ok() ? reader_.skip_items(*len, scalar_size(prop.type)) : len.status();
+        } else if (!reader_.can_read(scalar_size(prop.type))) {
+          s = reader_.overrun(scalar_size(prop.type));
+        } else {
+          if (layout_.slot[p] != kSkipProperty) {
+            v[layout_.slot[p]] = load_as_double(reader_.current(), prop.type, endian_);
+          }
+          s = reader_.skip(scalar_size(prop.type));
+        }
+        if (!s.ok()) return item_error(vertex, i, s);
+      }
+      cloud.positions.emplace_back(narrow_to_float(v[kX]), narrow_to_float(v[kY]),
+                                   narrow_to_float(v[kZ]));
+      if (layout_.normals) {
+        cloud.normals.emplace_back(narrow_to_float(v[kNx]), narrow_to_float(v[kNy]),
+                                   narrow_to_float(v[kNz]));
+      }
+      if (layout_.colors) {
+        const auto channel = [&](PlySlot s) {
+          return color_channel(v[s], vertex.properties[*layout_.property[s]].type);
+        };
+        cloud.colors.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
+      }
+      const std::size_t idx = cloud.size() - 1;
+      if (!cloud.positions[idx].allFinite() ||
+          (layout_.normals && !cloud.normals[idx].allFinite())) {
+        return non_finite_error(name_, cloud, idx, "byte offset " + std::to_string(item_offset));
+      }
+    }
+    progress_advance(progress_, reader_.offset() - start);
+    return Status();
+  }
+
+  const PlyHeader& header_;
+  const PlyVertexLayout& layout_;
+  std::string_view name_;
+  Progress* progress_;
+  Endian endian_;
+  ByteReader reader_;
+};
+
+}  // namespace
+
+Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
+                            const PlyVertexLayout& layout, std::string_view name,
+                            Progress* progress, PointCloud& cloud) {
+  return BinaryBodyReader(file, header, layout, name, progress).read(cloud);
+}
+
+}  // namespace sspc::io

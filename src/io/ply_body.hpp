@@ -1,0 +1,31 @@
+// The two ways a PLY body is stored: binary (either byte order) and ascii. Both walk every
+// element in header order, read the vertex element into the cloud and skip the others, so a
+// face list before or after the vertices is checked for truncation but otherwise ignored.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <string_view>
+
+#include "io/ply_header.hpp"
+#include "io/ply_vertex_layout.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc::io {
+
+// Binary bodies. Errors are kCorrupt with the byte offset. Bytes after the last element are
+// ignored (some writers pad the file or end it with a newline).
+Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
+                            const PlyVertexLayout& layout, std::string_view name,
+                            Progress* progress, PointCloud& cloud);
+
+// Ascii bodies: one element item per line, blank lines ignored. Errors are kParseError with the
+// line number; anything but whitespace after the last element is an error, since it means the
+// counts in the header are wrong.
+Status read_ply_ascii_body(std::span<const std::byte> file, const PlyHeader& header,
+                           const PlyVertexLayout& layout, std::string_view name, Progress* progress,
+                           PointCloud& cloud);
+
+}  // namespace sspc::io

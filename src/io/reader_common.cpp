@@ -1,0 +1,87 @@
+#include "io/reader_common.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <charconv>
+#include <limits>
+
+#include "core/parallel.hpp"
+
+namespace sspc::io {
+
+Status error_at_line(StatusCode code, std::string_view name, std::size_t line,
+                     std::string_view what) {
+  return Status(code,
+                std::string(name) + ": line " + std::to_string(line) + ": " + std::string(what));
+}
+
+Status error_at_offset(StatusCode code, std::string_view name, std::size_t offset,
+                       std::string_view what) {
+  return Status(code, std::string(name) + ": byte offset " + std::to_string(offset) + ": " +
+                          std::string(what));
+}
+
+Status error_in(StatusCode code, std::string_view name, std::string_view what) {
+  return Status(code, std::string(name) + ": " + std::string(what));
+}
+
+Status in_file(const Status& status, std::string_view name) {
+  return status.with_context(std::string(name));
+}
+
+std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud) {
+  constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+  std::atomic<std::size_t> first{kNone};
+  const bool normals = cloud.normals.size() == cloud.positions.size();
+  parallel_for_ranges(0, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e && i < first.load(std::memory_order_relaxed); ++i) {
+      if (!cloud.positions[i].allFinite() || (normals && !cloud.normals[i].allFinite())) {
+        // Keep the smallest index whichever range finds one first.
+        std::size_t seen = first.load();
+        while (i < seen && !first.compare_exchange_weak(seen, i)) {
+        }
+        return;
+      }
+    }
+  });
+  const std::size_t found = first.load();
+  if (found == kNone) return std::nullopt;
+  return found;
+}
+
+namespace {
+std::string format_vec(const Vec3f& v) {
+  std::string out = "(";
+  for (int k = 0; k < 3; ++k) {
+    char buf[32];
+    const auto res = std::to_chars(buf, buf + sizeof buf, v[k]);
+    out.append(buf, res.ptr);
+    out += k < 2 ? ", " : ")";
+  }
+  return out;
+}
+}  // namespace
+
+Status non_finite_error(std::string_view name, const PointCloud& cloud, std::size_t index,
+                        std::string_view where) {
+  std::string msg = std::string(name) + ": ";
+  if (!where.empty()) msg += std::string(where) + ": ";
+  const bool position_bad = !cloud.positions[index].allFinite();
+  msg += "point " + std::to_string(index) + " has a non-finite " +
+         (position_bad ? "coordinate " + format_vec(cloud.positions[index])
+                       : "normal " + format_vec(cloud.normals[index]));
+  return invalid_argument(std::move(msg));
+}
+
+Status finish_cloud(const PointCloud& cloud, std::string_view name) {
+  if (cloud.empty())
+    return error_in(StatusCode::kInvalidArgument, name, "the file holds no points");
+  if ((cloud.has_normals() && cloud.normals.size() != cloud.size()) ||
+      (cloud.has_colors() && cloud.colors.size() != cloud.size())) {
+    return internal_error(std::string(name) +
+                          ": reader produced attribute arrays of the wrong length");
+  }
+  return Status();
+}
+
+}  // namespace sspc::io

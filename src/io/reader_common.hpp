@@ -1,0 +1,57 @@
+// What the point cloud readers share: how errors name the file and the place in it, the final
+// checks every cloud passes before a reader returns it, and the reader entry points with a
+// progress hook (the public ones in sspc/io.hpp pass none).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "sspc/io.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc::io {
+
+// "bunny.ply: line 12: what"
+Status error_at_line(StatusCode code, std::string_view name, std::size_t line,
+                     std::string_view what);
+// "bunny.ply: byte offset 1234: what"
+Status error_at_offset(StatusCode code, std::string_view name, std::size_t offset,
+                       std::string_view what);
+// "bunny.ply: what"
+Status error_in(StatusCode code, std::string_view name, std::string_view what);
+// Prefixes a status from a lower layer (the byte reader, the LZF decoder) with the file name.
+Status in_file(const Status& status, std::string_view name);
+
+// The index of the first point whose position or normal has a NaN or infinite component.
+// Runs in parallel; the answer does not depend on the thread count.
+std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud);
+
+// kInvalidArgument naming the file, the point, its values and, when not empty, `where` ("line 7",
+// "byte offset 96") so that the user can find it.
+Status non_finite_error(std::string_view name, const PointCloud& cloud, std::size_t index,
+                        std::string_view where);
+
+// The checks that end every reader: at least one point (kInvalidArgument otherwise), attribute
+// arrays as long as the positions. Finite values are checked by each reader, which knows where
+// each point came from.
+Status finish_cloud(const PointCloud& cloud, std::string_view name);
+
+// Reader entry points that report progress in bytes consumed (stage opened by the caller).
+StatusOr<PointCloud> read_ply_with_progress(std::span<const std::byte> data, std::string_view name,
+                                            Progress* progress);
+StatusOr<PointCloud> read_xyz_with_progress(std::span<const std::byte> data, std::string_view name,
+                                            Progress* progress);
+StatusOr<PointCloud> read_pcd_with_progress(std::span<const std::byte> data, std::string_view name,
+                                            Progress* progress);
+
+// Views bytes as text without copying.
+inline std::string_view as_text(std::span<const std::byte> data) {
+  return {reinterpret_cast<const char*>(data.data()), data.size()};
+}
+
+}  // namespace sspc::io
