@@ -1,0 +1,159 @@
+#include "io/ply_writer.hpp"
+
+#include <bit>
+#include <charconv>
+#include <cstring>
+
+#include "core/atomic_file.hpp"
+#include "core/byte_reader.hpp"
+#include "core/parallel.hpp"
+
+namespace sspc {
+
+namespace io {
+
+namespace {
+
+// Stores `v` at `p` in byte order `endian`.
+inline void store_float(std::byte* p, float v, Endian endian) {
+  std::uint32_t bits = std::bit_cast<std::uint32_t>(v);
+  if (endian != kNativeEndian) bits = __builtin_bswap32(bits);
+  std::memcpy(p, &bits, sizeof bits);
+}
+
+// Shortest representation that reads back to the same float (std::to_chars' guarantee).
+inline void append_float(std::string& out, float v) {
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, res.ptr);
+}
+
+inline void append_uint(std::string& out, unsigned v) {
+  char buf[8];
+  const auto res = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, res.ptr);
+}
+
+// A comment is one header line: line breaks inside it would end the header early.
+std::string one_line(const std::string& text) {
+  std::string out = text;
+  for (char& c : out) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return out;
+}
+
+}  // namespace
+
+PlyEncoder::PlyEncoder(const PointCloud& cloud, const PlyWriteOptions& options)
+    : cloud_(cloud), options_(options) {
+  normals_ = options.write_normals && cloud.has_normals() && cloud.normals.size() == cloud.size();
+  colors_ = options.write_colors && cloud.has_colors() && cloud.colors.size() == cloud.size();
+  stride_ = std::size_t{12} + (normals_ ? 12u : 0u) + (colors_ ? 3u : 0u);
+}
+
+std::string PlyEncoder::header() const {
+  std::string h = "ply\nformat ";
+  switch (options_.encoding) {
+    case PlyEncoding::kBinaryLittleEndian: h += "binary_little_endian"; break;
+    case PlyEncoding::kBinaryBigEndian: h += "binary_big_endian"; break;
+    case PlyEncoding::kAscii: h += "ascii"; break;
+  }
+  h += " 1.0\n";
+  for (const std::string& c : options_.comments) h += "comment " + one_line(c) + "\n";
+  h += "element vertex " + std::to_string(cloud_.size()) + "\n";
+  h += "property float x\nproperty float y\nproperty float z\n";
+  if (normals_) h += "property float nx\nproperty float ny\nproperty float nz\n";
+  if (colors_) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  h += "end_header\n";
+  return h;
+}
+
+void PlyEncoder::append_body(std::size_t begin, std::size_t end, std::string& out) const {
+  if (options_.encoding == PlyEncoding::kAscii) {
+    append_ascii(begin, end, out);
+  } else {
+    append_binary(begin, end, out);
+  }
+}
+
+void PlyEncoder::append_binary(std::size_t begin, std::size_t end, std::string& out) const {
+  const Endian endian =
+      options_.encoding == PlyEncoding::kBinaryBigEndian ? Endian::kBig : Endian::kLittle;
+  const std::size_t base = out.size();
+  out.resize(base + (end - begin) * stride_);
+  auto* dst = reinterpret_cast<std::byte*>(out.data() + base);
+  parallel_for_ranges(begin, end, 1 << 15, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      std::byte* rec = dst + (i - begin) * stride_;
+      for (int k = 0; k < 3; ++k)
+        store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.positions[i][k], endian);
+      rec += 12;
+      if (normals_) {
+        for (int k = 0; k < 3; ++k)
+          store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.normals[i][k], endian);
+        rec += 12;
+      }
+      if (colors_) {
+        const Rgb8 c = cloud_.colors[i];
+        rec[0] = std::byte{c.r};
+        rec[1] = std::byte{c.g};
+        rec[2] = std::byte{c.b};
+      }
+    }
+  });
+}
+
+void PlyEncoder::append_ascii(std::size_t begin, std::size_t end, std::string& out) const {
+  for (std::size_t i = begin; i < end; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (k > 0) out += ' ';
+      append_float(out, cloud_.positions[i][k]);
+    }
+    if (normals_) {
+      for (int k = 0; k < 3; ++k) {
+        out += ' ';
+        append_float(out, cloud_.normals[i][k]);
+      }
+    }
+    if (colors_) {
+      const Rgb8 c = cloud_.colors[i];
+      for (unsigned v : {unsigned{c.r}, unsigned{c.g}, unsigned{c.b}}) {
+        out += ' ';
+        append_uint(out, v);
+      }
+    }
+    out += '\n';
+  }
+}
+
+}  // namespace io
+
+std::string encode_ply(const PointCloud& cloud, const PlyWriteOptions& options) {
+  const io::PlyEncoder encoder(cloud, options);
+  std::string out = encoder.header();
+  encoder.append_body(0, cloud.size(), out);
+  return out;
+}
+
+Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
+                 const PlyWriteOptions& options) {
+  if (Status s = cloud.validate(); !s.ok()) {
+    return s.with_context("writing " + path.string());
+  }
+  const io::PlyEncoder encoder(cloud, options);
+  AtomicFileWriter file;
+  SSPC_RETURN_IF_ERROR(file.open(path));
+  SSPC_RETURN_IF_ERROR(file.write(encoder.header()));
+  // Chunks of about 16 MB bound the memory a large cloud needs on top of itself.
+  constexpr std::size_t kChunk = std::size_t{1} << 19;
+  std::string buffer;
+  for (std::size_t begin = 0; begin < cloud.size(); begin += kChunk) {
+    buffer.clear();
+    encoder.append_body(begin, std::min(cloud.size(), begin + kChunk), buffer);
+    SSPC_RETURN_IF_ERROR(file.write(buffer));
+  }
+  return file.commit();
+}
+
+}  // namespace sspc

@@ -1,0 +1,65 @@
+// read_point_cloud: maps the file and hands it to the reader its format calls for: the one the
+// caller names, else the one the extension names, else the one the first bytes look like.
+#include <algorithm>
+#include <cctype>
+#include <string>
+
+#include "core/mapped_file.hpp"
+#include "io/reader_common.hpp"
+
+namespace sspc {
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// PLY's magic line is mandatory. PCD files open with PCL's "# .PCD" comment or, when a tool
+// dropped it, with VERSION or FIELDS. Anything else is given to the XYZ reader, whose first
+// error explains what it expected.
+PointCloudFormat sniff_format(std::string_view text) {
+  if (text.starts_with("ply\n") || text.starts_with("ply\r\n")) return PointCloudFormat::kPly;
+  if (text.starts_with("# .PCD") || text.starts_with("VERSION") || text.starts_with("FIELDS")) {
+    return PointCloudFormat::kPcd;
+  }
+  return PointCloudFormat::kXyz;
+}
+
+}  // namespace
+
+PointCloudFormat format_from_extension(const std::filesystem::path& path) {
+  const std::string ext = lower(path.extension().string());
+  if (ext == ".ply") return PointCloudFormat::kPly;
+  if (ext == ".pcd") return PointCloudFormat::kPcd;
+  if (ext == ".xyz" || ext == ".pts" || ext == ".txt") return PointCloudFormat::kXyz;
+  return PointCloudFormat::kAuto;
+}
+
+StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
+                                      const ReadOptions& options) {
+  SSPC_ASSIGN_OR_RETURN(const MappedFile file, MappedFile::open(path));
+  const std::string name = path.string();
+  PointCloudFormat format = options.format;
+  if (format == PointCloudFormat::kAuto) format = format_from_extension(path);
+  if (format == PointCloudFormat::kAuto) format = sniff_format(io::as_text(file.bytes()));
+
+  progress_begin(options.progress, "reading " + path.filename().string(), file.size(), "bytes");
+  StatusOr<PointCloud> cloud = [&] {
+    switch (format) {
+      case PointCloudFormat::kPly:
+        return io::read_ply_with_progress(file.bytes(), name, options.progress);
+      case PointCloudFormat::kPcd:
+        return io::read_pcd_with_progress(file.bytes(), name, options.progress);
+      case PointCloudFormat::kXyz:
+      case PointCloudFormat::kAuto: break;
+    }
+    return io::read_xyz_with_progress(file.bytes(), name, options.progress);
+  }();
+  progress_end(options.progress);
+  return cloud;
+}
+
+}  // namespace sspc
