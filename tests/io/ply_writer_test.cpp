@@ -1,0 +1,104 @@
+// write→read round trips of the PLY writer in every encoding, and the atomic file write.
+#include <fstream>
+#include <sstream>
+#include <tuple>
+
+#include <gtest/gtest.h>
+
+#include "io_test_util.hpp"
+#include "sspc/io.hpp"
+#include "test_util.hpp"
+
+namespace sspc {
+namespace {
+
+using test::bytes_of;
+using test::same_bits;
+
+class PlyRoundTrip
+    : public ::testing::TestWithParam<std::tuple<PlyEncoding, bool /*normals*/, bool /*colors*/>> {
+};
+
+TEST_P(PlyRoundTrip, FloatsAndColoursComeBackBitExact) {
+  const auto [encoding, normals, colors] = GetParam();
+  const PointCloud cloud = test::sample_cloud(50, normals, colors);
+  PlyWriteOptions options;
+  options.encoding = encoding;
+  const std::string bytes = encode_ply(cloud, options);
+  const StatusOr<PointCloud> back = read_ply(bytes_of(bytes), "memory.ply");
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  ASSERT_EQ(back->size(), cloud.size());
+  EXPECT_EQ(back->has_normals(), normals);
+  EXPECT_EQ(back->has_colors(), colors);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_TRUE(same_bits(back->positions[i], cloud.positions[i])) << "point " << i;
+    if (normals) {
+      EXPECT_TRUE(same_bits(back->normals[i], cloud.normals[i])) << "normal " << i;
+    }
+    if (colors) {
+      EXPECT_EQ(back->colors[i], cloud.colors[i]) << "colour " << i;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllEncodings, PlyRoundTrip,
+                         ::testing::Combine(::testing::Values(PlyEncoding::kBinaryLittleEndian,
+                                                              PlyEncoding::kBinaryBigEndian,
+                                                              PlyEncoding::kAscii),
+                                            ::testing::Bool(), ::testing::Bool()));
+
+TEST(PlyWriter, HeaderNamesTheLayoutAndKeepsComments) {
+  PlyWriteOptions options;
+  options.comments = {"made by a test", "two\nlines"};
+  const std::string bytes = encode_ply(test::sample_cloud(2, true, true), options);
+  EXPECT_EQ(bytes.rfind(
+                "ply\nformat binary_little_endian 1.0\ncomment made by a test\ncomment two lines\n"
+                "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+                "property float nx\nproperty float ny\nproperty float nz\n"
+                "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+                0),
+            0u);
+  EXPECT_EQ(bytes.size(), bytes.find("end_header\n") + 11 + 2 * 27);
+}
+
+TEST(PlyWriter, OptionsCanDropNormalsAndColours) {
+  PlyWriteOptions options;
+  options.write_normals = false;
+  options.write_colors = false;
+  const std::string bytes = encode_ply(test::sample_cloud(3, true, true), options);
+  const StatusOr<PointCloud> back = read_ply(bytes_of(bytes), "memory.ply");
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_FALSE(back->has_normals());
+  EXPECT_FALSE(back->has_colors());
+}
+
+TEST(PlyWriter, WritePlyReplacesTheFileAtomically) {
+  test::TempDir dir;
+  const auto path = dir.path() / "out.ply";
+  const PointCloud cloud = test::sample_cloud(10, true, false);
+  ASSERT_TRUE(write_ply(cloud, path).ok());
+  ASSERT_TRUE(write_ply(cloud, path).ok());      // over an existing file
+  EXPECT_EQ(test::count_files(dir.path()), 1u);  // no temporary left behind
+  const StatusOr<PointCloud> back = read_point_cloud(path);
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->size(), 10u);
+  EXPECT_TRUE(back->has_normals());
+}
+
+TEST(PlyWriter, WritePlyRefusesAnInvalidCloudAndLeavesNoFile) {
+  test::TempDir dir;
+  PointCloud cloud = test::sample_cloud(4, true, false);
+  cloud.normals.pop_back();
+  const Status s = write_ply(cloud, dir.path() / "bad.ply");
+  EXPECT_FALSE(s.ok());
+  EXPECT_EQ(test::count_files(dir.path()), 0u);
+}
+
+TEST(PlyWriter, WritePlyIntoAMissingDirectoryFails) {
+  test::TempDir dir;
+  const Status s = write_ply(test::sample_cloud(4, false, false), dir.path() / "no" / "x.ply");
+  EXPECT_EQ(s.code(), StatusCode::kIoError) << s.to_string();
+}
+
+}  // namespace
+}  // namespace sspc
