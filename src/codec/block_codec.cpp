@@ -1,0 +1,326 @@
+// Block payloads of docs/FORMAT.md. Values are split into byte planes (low bytes, then high
+// bytes) so that zstd's literal coder sees each plane's own small alphabet; patch fields are
+// delta-coded zig-zag varints because patches arrive in spatial order; rotations are bit-packed
+// because their bits are close to random and padding them to bytes would cost ~20 %.
+#include "codec/block_codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "codec/quantize.hpp"
+#include "codec/span_reader.hpp"
+
+namespace sspc::codec {
+namespace {
+
+void put_varint(std::string& out, std::uint64_t v) {
+  while (v >= 0x80) {
+    out.push_back(static_cast<char>((v & 0x7F) | 0x80));
+    v >>= 7;
+  }
+  out.push_back(static_cast<char>(v));
+}
+
+// LSB-first bit packing.
+class BitWriter {
+ public:
+  explicit BitWriter(std::string& out) : out_(out) {}
+  void put(std::uint64_t value, int width) {
+    for (int i = 0; i < width; ++i) {
+      if (used_ == 0) out_.push_back('\0');
+      if ((value >> i) & 1u) {
+        out_.back() = static_cast<char>(static_cast<unsigned char>(out_.back()) | (1u << used_));
+      }
+      used_ = (used_ + 1) & 7;
+    }
+  }
+
+ private:
+  std::string& out_;
+  int used_ = 0;
+};
+
+// Reads `width` ≤ 32 bits at bit position `pos` of `bytes`, which the caller has sized so that
+// pos + width bits exist.
+std::uint32_t get_bits(std::span<const std::byte> bytes, std::size_t pos, int width) {
+  std::uint64_t word = 0;
+  const std::size_t first = pos / 8;
+  const std::size_t n = std::min<std::size_t>(8, bytes.size() - first);
+  for (std::size_t i = 0; i < n; ++i) {
+    word |= static_cast<std::uint64_t>(static_cast<std::uint8_t>(bytes[first + i])) << (8 * i);
+  }
+  word >>= (pos % 8);
+  return static_cast<std::uint32_t>(word & ((std::uint64_t{1} << width) - 1));
+}
+
+Status payload_error(std::size_t offset, const std::string& what) {
+  return corrupt("payload byte " + std::to_string(offset) + ": " + what);
+}
+
+std::uint8_t byte_at(std::span<const std::byte> s, std::size_t i) {
+  return static_cast<std::uint8_t>(s[i]);
+}
+
+}  // namespace
+
+std::size_t bytes_per_codeword_point(const ContainerHeader& header) {
+  return std::size_t{6} + (header.has_normals() ? 4u : 0u) + (header.has_colors() ? 3u : 0u);
+}
+
+std::string encode_codeword_block(std::span<const CodeWord> codewords,
+                                  const ContainerHeader& header) {
+  std::string out;
+  std::size_t total = 0;
+  for (const CodeWord& c : codewords) {
+    put_varint(out, c.points.size());
+    total += c.points.size();
+  }
+  const float step = position_step(header.patch_radius, header.position_bits);
+  std::vector<std::uint32_t> values;
+  values.reserve(3 * total);
+  for (const CodeWord& c : codewords) {
+    for (const Vec3f& p : c.points) {
+      for (int a = 0; a < 3; ++a)
+        values.push_back(quantize_coordinate(p[a], step, header.position_bits));
+    }
+  }
+  auto put_planes = [&out](const std::vector<std::uint32_t>& v) {
+    for (std::uint32_t x : v) out.push_back(static_cast<char>(x & 0xFF));
+    for (std::uint32_t x : v) out.push_back(static_cast<char>((x >> 8) & 0xFF));
+  };
+  put_planes(values);
+  if (header.has_normals()) {
+    values.clear();
+    for (const CodeWord& c : codewords) {
+      for (std::size_t i = 0; i < c.points.size(); ++i) {
+        const Vec3f n = i < c.normals.size() ? c.normals[i] : Vec3f::UnitZ();
+        const auto uv = encode_normal(n, header.normal_bits);
+        values.push_back(uv[0]);
+        values.push_back(uv[1]);
+      }
+    }
+    put_planes(values);
+  }
+  if (header.has_colors()) {
+    for (int channel = 0; channel < 3; ++channel) {
+      for (const CodeWord& c : codewords) {
+        for (std::size_t i = 0; i < c.points.size(); ++i) {
+          const Rgb8 rgb = i < c.colors.size() ? c.colors[i] : Rgb8{};
+          const std::uint8_t v = channel == 0 ? rgb.r : channel == 1 ? rgb.g : rgb.b;
+          out.push_back(static_cast<char>(v));
+        }
+      }
+    }
+  }
+  return out;
+}
+
+StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
+                                         const ContainerHeader& header) {
+  std::string out;
+  std::int64_t previous_codeword = 0;
+  for (const PatchInstance& p : patches) {
+    put_varint(out, zigzag_encode(static_cast<std::int64_t>(p.codeword) - previous_codeword));
+    previous_codeword = p.codeword;
+  }
+  std::array<std::int64_t, 3> previous{0, 0, 0};
+  for (const PatchInstance& p : patches) {
+    std::array<std::int32_t, 3> v{};
+    if (!quantize_translation(p.world_from_codeword.translation, header.bounds_min,
+                              header.translation_step, v)) {
+      return invalid_argument(
+          "a patch translation lies more than 2^24 translation steps from "
+          "the bounds' minimum; use a larger translation_step");
+    }
+    for (std::size_t a = 0; a < 3; ++a) {
+      put_varint(out, zigzag_encode(v[a] - previous[a]));
+      previous[a] = v[a];
+    }
+  }
+  BitWriter bits(out);
+  for (const PatchInstance& p : patches) {
+    const PackedRotation r = encode_rotation(p.world_from_codeword.rotation, header.rotation_bits);
+    bits.put(r.index, 2);
+    for (std::uint32_t c : r.c) bits.put(c, header.rotation_bits);
+  }
+  return out;
+}
+
+Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& entry,
+                             const ContainerHeader& header, DecodedCodewords& out) {
+  SpanReader reader(raw);
+  const std::size_t per_point = bytes_per_codeword_point(header);
+  // Every point needs per_point bytes, so the seek table's count is bounded by the payload.
+  if (entry.point_count > raw.size() / per_point) {
+    return payload_error(0, "point count " + std::to_string(entry.point_count) + " cannot fit in " +
+                                std::to_string(raw.size()) + " bytes");
+  }
+  const std::size_t n = entry.point_count;
+  out.first = entry.first;
+  out.offsets.assign(1, 0);
+  out.offsets.reserve(std::size_t{entry.count} + 1);
+  std::uint64_t sum = 0;
+  for (std::uint32_t c = 0; c < entry.count; ++c) {
+    std::uint64_t count = 0;
+    const std::size_t at = reader.position();
+    if (!reader.varint(count)) return payload_error(at, "bad or truncated point count");
+    sum += count;
+    if (count > n || sum > n) {
+      return payload_error(
+          at, "code words hold more points than the seek table's " + std::to_string(n));
+    }
+    out.offsets.push_back(static_cast<std::uint32_t>(sum));
+  }
+  if (sum != n) {
+    return payload_error(reader.position(), "code words hold " + std::to_string(sum) +
+                                                " points, the seek table says " +
+                                                std::to_string(n));
+  }
+  std::span<const std::byte> pos_bytes, normal_bytes, color_bytes;
+  if (!reader.take(6 * n, pos_bytes) ||
+      (header.has_normals() && !reader.take(4 * n, normal_bytes)) ||
+      (header.has_colors() && !reader.take(3 * n, color_bytes))) {
+    return payload_error(reader.position(), "payload ends inside the point data");
+  }
+  if (!reader.at_end()) {
+    return payload_error(reader.position(),
+                         std::to_string(reader.remaining()) + " bytes after the point data");
+  }
+
+  const float step = position_step(header.patch_radius, header.position_bits);
+  const int pbits = header.position_bits;
+  std::uint32_t overflow = 0;
+  out.points.resize(n);
+  out.norm2.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    float xyz[3];
+    for (std::size_t a = 0; a < 3; ++a) {
+      const std::size_t j = 3 * i + a;
+      const std::uint32_t v =
+          byte_at(pos_bytes, j) | (static_cast<std::uint32_t>(byte_at(pos_bytes, 3 * n + j)) << 8);
+      overflow |= v >> pbits;
+      xyz[a] = dequantize_coordinate(v, step, pbits);
+    }
+    out.points[i] = Vec3f(xyz[0], xyz[1], xyz[2]);
+    out.norm2[i] = xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2];
+  }
+  if (overflow != 0) return payload_error(0, "a position value exceeds position_bits");
+  if (header.has_normals()) {
+    out.normals.resize(n);
+    const int nbits = header.normal_bits;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint32_t uv[2];
+      for (std::size_t a = 0; a < 2; ++a) {
+        const std::size_t j = 2 * i + a;
+        uv[a] = byte_at(normal_bytes, j) |
+                (static_cast<std::uint32_t>(byte_at(normal_bytes, 2 * n + j)) << 8);
+        overflow |= uv[a] >> nbits;
+      }
+      out.normals[i] = decode_normal(uv[0], uv[1], nbits);
+    }
+    if (overflow != 0) return payload_error(6 * n, "a normal value exceeds normal_bits");
+  } else {
+    out.normals.clear();
+  }
+  if (header.has_colors()) {
+    out.colors.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      out.colors[i] = Rgb8{byte_at(color_bytes, i), byte_at(color_bytes, n + i),
+                           byte_at(color_bytes, 2 * n + i)};
+    }
+  } else {
+    out.colors.clear();
+  }
+  out.radius.resize(entry.count);
+  for (std::uint32_t c = 0; c < entry.count; ++c) {
+    float max_norm2 = 0;
+    for (std::uint32_t i = out.offsets[c]; i < out.offsets[c + 1]; ++i) {
+      max_norm2 = std::max(max_norm2, out.norm2[i]);
+    }
+    out.radius[c] = std::sqrt(max_norm2);
+  }
+  return Status();
+}
+
+Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entry,
+                          const ContainerHeader& header, bool check_box, DecodedPatches& out) {
+  const std::size_t m = entry.count;
+  // Each patch takes at least 4 varint bytes plus its rotation bits.
+  const std::size_t rotation_bits = 2 + 3 * static_cast<std::size_t>(header.rotation_bits);
+  if (m > raw.size() / 4) return payload_error(0, "patch count cannot fit in the block");
+  const std::size_t rotation_bytes = (m * rotation_bits + 7) / 8;
+  SpanReader reader(raw);
+  out.first = entry.first;
+  out.codeword.resize(m);
+  out.rotation.resize(m);
+  out.centre.resize(m);
+  std::int64_t codeword = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    std::uint64_t z = 0;
+    const std::size_t at = reader.position();
+    if (!reader.varint(z)) return payload_error(at, "bad or truncated code-word index");
+    const std::int64_t delta = zigzag_decode(z);
+    if (delta > std::int64_t{UINT32_MAX} || delta < -std::int64_t{UINT32_MAX}) {
+      return payload_error(at, "code-word delta out of range");
+    }
+    codeword += delta;
+    if (codeword < 0 || codeword >= std::int64_t{header.codeword_count}) {
+      return payload_error(at, "code-word index " + std::to_string(codeword) +
+                                   " outside the code book of " +
+                                   std::to_string(header.codeword_count));
+    }
+    out.codeword[k] = static_cast<std::uint32_t>(codeword);
+  }
+  std::array<std::int64_t, 3> v{0, 0, 0};
+  for (std::size_t k = 0; k < m; ++k) {
+    std::array<std::int32_t, 3> grid{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      std::uint64_t z = 0;
+      const std::size_t at = reader.position();
+      if (!reader.varint(z)) return payload_error(at, "bad or truncated translation");
+      const std::int64_t delta = zigzag_decode(z);
+      if (delta > 2 * kMaxTranslationGrid || delta < -2 * kMaxTranslationGrid) {
+        return payload_error(at, "translation delta out of range");
+      }
+      v[a] += delta;
+      if (v[a] > kMaxTranslationGrid || v[a] < -kMaxTranslationGrid) {
+        return payload_error(at, "translation outside the grid's |v| < 2^24");
+      }
+      grid[a] = static_cast<std::int32_t>(v[a]);
+    }
+    out.centre[k] = dequantize_translation(grid, header.bounds_min, header.translation_step);
+    if (check_box && !entry.box.contains(out.centre[k])) {
+      return payload_error(reader.position(),
+                           "patch " + std::to_string(entry.first + k) +
+                               " has its centre outside the block's box in the seek table");
+    }
+  }
+  std::span<const std::byte> rot;
+  if (!reader.take(rotation_bytes, rot)) {
+    return payload_error(reader.position(), "payload ends inside the rotations");
+  }
+  if (!reader.at_end()) {
+    return payload_error(reader.position(),
+                         std::to_string(reader.remaining()) + " bytes after the rotations");
+  }
+  const int b = header.rotation_bits;
+  std::size_t bit = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    PackedRotation r;
+    r.index = get_bits(rot, bit, 2);
+    bit += 2;
+    for (std::uint32_t& c : r.c) {
+      c = get_bits(rot, bit, b);
+      bit += static_cast<std::size_t>(b);
+    }
+    out.rotation[k] = decode_rotation(r, b);
+  }
+  const std::size_t pad = rotation_bytes * 8 - bit;
+  if (pad > 0 && get_bits(rot, bit, static_cast<int>(pad)) != 0) {
+    return payload_error(raw.size() - 1, "non-zero padding bits after the rotations");
+  }
+  return Status();
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,12 @@
+// CRC32 (zlib's, as PNG and the .sspc format use it) over any span of bytes.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+namespace sspc::codec {
+
+std::uint32_t crc32_of(std::span<const std::byte> bytes);
+
+}  // namespace sspc::codec

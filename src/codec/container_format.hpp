@@ -1,0 +1,108 @@
+// The constants and fixed layouts of the .sspc container, version 1 (docs/FORMAT.md is the
+// specification; this file mirrors its tables, and a change here is a change of format).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "sspc/point_cloud.hpp"
+
+namespace sspc::codec {
+
+// "\x8A S P C \r \n \x1A \n": high bit set (7-bit transfers), CR LF and LF (line-ending
+// conversion either way), Ctrl-Z (stops an MS-DOS `type`). See FORMAT.md.
+inline constexpr std::array<std::uint8_t, 8> kMagic = {0x8A, 'S', 'P', 'C', 0x0D, 0x0A, 0x1A, 0x0A};
+inline constexpr std::uint16_t kFormatVersion = 1;
+
+inline constexpr std::uint16_t kFlagNormals = 1u << 0;
+inline constexpr std::uint16_t kFlagColors = 1u << 1;
+inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors;
+
+inline constexpr std::size_t kHeaderSize = 196;
+inline constexpr std::size_t kHeaderCrcOffset = 192;
+inline constexpr std::size_t kSectionTableOffset = 96;
+inline constexpr std::size_t kSectionEntrySize = 24;
+inline constexpr std::size_t kSectionCount = 4;
+inline constexpr std::size_t kCodebookSeekEntrySize = 32;
+inline constexpr std::size_t kPatchSeekEntrySize = 56;
+
+// A reader must be able to bound one block's memory whatever the file says.
+inline constexpr std::uint32_t kMaxRawBlockSize = 1u << 26;
+// |v| < 2^24 keeps float(v) exact for translation grid values.
+inline constexpr std::int64_t kMaxTranslationGrid = (std::int64_t{1} << 24) - 1;
+
+inline constexpr int kMinPositionBits = 4, kMaxPositionBits = 16;
+inline constexpr int kMinNormalBits = 4, kMaxNormalBits = 16;
+inline constexpr int kMinRotationBits = 4, kMaxRotationBits = 20;
+
+enum class SectionKind : std::uint32_t {
+  kCodebookBlocks = 1,
+  kCodebookSeek = 2,
+  kPatchBlocks = 3,
+  kPatchSeek = 4,
+};
+
+// Human-readable names for error messages and `sspc info`.
+inline const char* section_name(SectionKind kind) {
+  switch (kind) {
+    case SectionKind::kCodebookBlocks: return "code-book blocks";
+    case SectionKind::kCodebookSeek: return "code-book seek table";
+    case SectionKind::kPatchBlocks: return "patch blocks";
+    case SectionKind::kPatchSeek: return "patch seek table";
+  }
+  return "unknown section";
+}
+
+struct SectionEntry {
+  SectionKind kind = SectionKind::kCodebookBlocks;
+  std::uint32_t crc32 = 0;
+  std::uint64_t offset = 0;
+  std::uint64_t size = 0;
+};
+
+// The header's fields, decoded (FORMAT.md, "Header").
+struct ContainerHeader {
+  std::uint16_t version = kFormatVersion;
+  std::uint16_t flags = 0;
+  float patch_radius = 0;
+  float coverage_radius = 0;
+  float spacing = 0;
+  float codeword_radius = 0;
+  std::uint64_t source_points = 0;
+  Vec3f bounds_min = Vec3f::Zero();
+  Vec3f bounds_max = Vec3f::Zero();
+  float translation_step = 0;
+  int position_bits = 12;
+  int normal_bits = 10;
+  int rotation_bits = 13;
+  std::uint32_t codeword_count = 0;
+  std::uint32_t patch_count = 0;
+  std::uint64_t codeword_point_count = 0;
+  std::uint32_t codewords_per_block = 1;
+  std::uint32_t patches_per_block = 1;
+  std::array<SectionEntry, kSectionCount> sections{};
+
+  bool has_normals() const { return (flags & kFlagNormals) != 0; }
+  bool has_colors() const { return (flags & kFlagColors) != 0; }
+};
+
+// One block's place in its section, as the seek tables store it.
+struct BlockEntry {
+  std::uint64_t offset = 0;  // within the section
+  std::uint32_t stored_size = 0;
+  std::uint32_t raw_size = 0;
+  std::uint32_t crc32 = 0;
+  std::uint32_t first = 0;
+  std::uint32_t count = 0;
+  std::uint32_t point_count = 0;  // code-book blocks only
+  Box3f box;                      // patch blocks only
+
+  bool is_stored_raw() const { return stored_size == raw_size; }
+};
+
+inline std::uint64_t block_count(std::uint64_t items, std::uint32_t per_block) {
+  return per_block == 0 ? 0 : (items + per_block - 1) / per_block;
+}
+
+}  // namespace sspc::codec
