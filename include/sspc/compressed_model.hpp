@@ -1,0 +1,119 @@
+// Random access to a compressed model: an .sspc file (docs/FORMAT.md) opened for decoding.
+//
+// A CompressedModel answers for one patch, one code word, one box or the whole model without
+// reading more of the file than the answer needs: the file is memory-mapped, its blocks are
+// decoded on demand and kept in a small cache, and a patch's region test reads only the patch
+// blocks near it. This is the API the renderer uses too.
+//
+// Safe on untrusted files: every byte is checked (CRCs before decompressing, sizes and counts
+// bounded by the file), and a corrupt file gives a kCorrupt Status naming the section, block and
+// byte offset, never a crash. Thread-safe: all const members may be called from many threads at
+// once.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc {
+
+struct DecodeOptions {
+  // false: each patch keeps only the code-word points of its own region (the Voronoi cell of its
+  // centre), so the decoded count is close to the source's. true: every instance's whole sphere.
+  bool overlap = false;
+  Progress* progress = nullptr;
+};
+
+// Patch k as stored: its code word and the transform world_from_codeword (x ↦ R x + t); t is
+// the patch's region centre.
+struct PatchRecord {
+  std::uint32_t codeword = 0;
+  Eigen::Matrix3f rotation = Eigen::Matrix3f::Identity();
+  Vec3f translation = Vec3f::Zero();
+};
+
+// One code word, decoded, in its own frame (origin = the representative patch's centre).
+struct CodeWordData {
+  PointCloud points;  // normals and colours when the model has them
+  float radius = 0;   // largest distance of a point from the origin: the instances' bounding sphere
+};
+
+struct SectionInfo {
+  std::string name;
+  std::uint64_t offset = 0;
+  std::uint64_t bytes = 0;
+  std::uint64_t raw_bytes = 0;  // block sections: before zstd; seek tables: = bytes
+  std::uint64_t blocks = 0;
+};
+
+struct ModelInfo {
+  int version = 0;
+  bool has_normals = false;
+  bool has_colors = false;
+  float patch_radius = 0;
+  float coverage_radius = 0;
+  float spacing = 0;
+  float codeword_radius = 0;
+  Box3f bounds;
+  std::uint64_t source_points = 0;
+  int position_bits = 0;
+  int normal_bits = 0;
+  int rotation_bits = 0;
+  float translation_step = 0;
+  std::uint64_t patches = 0;
+  std::uint64_t codewords = 0;
+  std::uint64_t codeword_points = 0;  // Σ code-word sizes
+  std::uint64_t overlap_points = 0;   // points of an overlap-mode decode: Σ over patches
+  std::uint32_t patches_per_block = 0;
+  std::uint32_t codewords_per_block = 0;
+  std::uint64_t file_bytes = 0;
+  std::uint64_t header_bytes = 0;
+  SectionInfo sections[4];
+  double codebook_ratio = 0;  // patches / code words
+  double bits_per_point = 0;  // file bytes × 8 / source points
+};
+
+class CompressedModel {
+ public:
+  CompressedModel(CompressedModel&&) noexcept;
+  CompressedModel& operator=(CompressedModel&&) noexcept;
+  ~CompressedModel();
+
+  // Maps the file and checks its header and seek tables (not the blocks: see verify()).
+  static StatusOr<CompressedModel> open(const std::filesystem::path& path);
+  // The same over bytes in memory, which the model keeps.
+  static StatusOr<CompressedModel> from_bytes(std::string bytes);
+
+  std::size_t patch_count() const;
+  std::size_t codeword_count() const;
+
+  StatusOr<PatchRecord> patch(std::size_t k) const;
+  StatusOr<CodeWordData> codeword(std::size_t c) const;
+
+  // Patch k's points in the world: exactly its part of decode_all(), in the same order.
+  StatusOr<PointCloud> decode_patch(std::size_t k, const DecodeOptions& options = {}) const;
+  // Exactly the points of decode_all() inside `box` (inclusive), in the same order.
+  StatusOr<PointCloud> decode_box(const Box3f& box, const DecodeOptions& options = {}) const;
+  // The whole model, patches in file order; parallel and deterministic.
+  StatusOr<PointCloud> decode_all(const DecodeOptions& options = {}) const;
+
+  // Every checksum (sections and blocks) and a decode of every block.
+  Status verify() const;
+
+  ModelInfo info() const;
+
+ private:
+  struct Impl;
+  explicit CompressedModel(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sspc

@@ -1,0 +1,81 @@
+#include "codec/region_decoder.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sspc::codec {
+namespace {
+
+struct FrameNeighbour {
+  float x, y, z, ee;  // e_j and |e_j|²
+  std::uint32_t index;
+};
+
+// R q + c, spelled out so that its rounding is the same in every caller.
+Vec3f transform_point(const Eigen::Matrix3f& r, const Vec3f& q, const Vec3f& c) {
+  return {r(0, 0) * q.x() + r(0, 1) * q.y() + r(0, 2) * q.z() + c.x(),
+          r(1, 0) * q.x() + r(1, 1) * q.y() + r(1, 2) * q.z() + c.y(),
+          r(2, 0) * q.x() + r(2, 1) * q.y() + r(2, 2) * q.z() + c.z()};
+}
+Vec3f rotate(const Eigen::Matrix3f& r, const Vec3f& v) {
+  return {r(0, 0) * v.x() + r(0, 1) * v.y() + r(0, 2) * v.z(),
+          r(1, 0) * v.x() + r(1, 1) * v.y() + r(1, 2) * v.z(),
+          r(2, 0) * v.x() + r(2, 1) * v.y() + r(2, 2) * v.z()};
+}
+
+}  // namespace
+
+void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
+                const CodewordView& cw, std::span<const Neighbour> neighbours, bool overlap,
+                const Box3f* clip, PointCloud& out) {
+  thread_local std::vector<FrameNeighbour> frame;
+  frame.clear();
+  float min_ee = std::numeric_limits<float>::infinity();
+  if (!overlap) {
+    for (const Neighbour& n : neighbours) {
+      const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
+                  dz = n.centre.z() - centre.z();
+      // Rᵀ d: column a of R dotted with d.
+      FrameNeighbour f;
+      f.x = rotation(0, 0) * dx + rotation(1, 0) * dy + rotation(2, 0) * dz;
+      f.y = rotation(0, 1) * dx + rotation(1, 1) * dy + rotation(2, 1) * dz;
+      f.z = rotation(0, 2) * dx + rotation(1, 2) * dy + rotation(2, 2) * dz;
+      f.ee = f.x * f.x + f.y * f.y + f.z * f.z;
+      f.index = n.index;
+      frame.push_back(f);
+      min_ee = std::min(min_ee, f.ee);
+    }
+    // Nearest first: most rejections happen on the first test. The order does not change which
+    // points are kept.
+    std::sort(frame.begin(), frame.end(), [](const FrameNeighbour& a, const FrameNeighbour& b) {
+      return a.ee < b.ee || (a.ee == b.ee && a.index < b.index);
+    });
+  }
+  // Points with |q| < 0.499·min|e_j| satisfy every test with a wide margin (s ≥ 0.002·|e_j|²).
+  const float quick = 0.499f * std::sqrt(min_ee);
+  const float quick2 =
+      std::isfinite(quick) ? quick * quick : std::numeric_limits<float>::infinity();
+
+  const bool normals = cw.normals != nullptr;
+  const bool colors = cw.colors != nullptr;
+  for (std::size_t i = 0; i < cw.size; ++i) {
+    const Vec3f& q = cw.points[i];
+    if (!overlap && !(cw.norm2[i] < quick2)) {
+      bool keep = true;
+      for (const FrameNeighbour& f : frame) {
+        const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
+        if (s > 0.0f || (s == 0.0f && k < f.index)) continue;
+        keep = false;
+        break;
+      }
+      if (!keep) continue;
+    }
+    const Vec3f p = transform_point(rotation, q, centre);
+    if (clip != nullptr && !clip->contains(p)) continue;
+    out.positions.push_back(p);
+    if (normals) out.normals.push_back(rotate(rotation, cw.normals[i]));
+    if (colors) out.colors.push_back(cw.colors[i]);
+  }
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,54 @@
+// Region decoding (SPEC step 9; docs/FORMAT.md, "Decoding: regions"): patch k emits the code
+// word's points whose nearest region centre is k's own, ties to the lower patch index.
+//
+// The test runs in the code word's frame: with e_j = R_kᵀ (c_j − c_k) the neighbour's centre
+// seen from the code word, point q is nearer to c_k than to c_j iff |e_j|² − 2 q·e_j > 0. That
+// needs one dot product per neighbour and no transform of rejected points; and since every
+// quantity is computed by the one function below from the decoded block data, a whole-model,
+// one-patch and box decode produce bit-identical points.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sspc/point_cloud.hpp"
+
+namespace sspc::codec {
+
+struct Neighbour {
+  std::uint32_t index = 0;
+  Vec3f centre;
+};
+
+// The neighbourhood N_k of FORMAT.md: j belongs to it iff centre_distance2(c_j, c_k) ≤
+// neighbour_threshold2(ρ), ρ the radius of k's code word.
+inline float centre_distance2(const Vec3f& a, const Vec3f& b) {
+  const float dx = a.x() - b.x(), dy = a.y() - b.y(), dz = a.z() - b.z();
+  return dx * dx + dy * dy + dz * dz;
+}
+inline float neighbour_threshold2(float radius) {
+  return 4.0f * radius * radius * 1.0001f;
+}
+
+// A decoded code word's arrays (normals and colours may be null).
+struct CodewordView {
+  const Vec3f* points = nullptr;
+  const float* norm2 = nullptr;
+  const Vec3f* normals = nullptr;
+  const Rgb8* colors = nullptr;
+  std::size_t size = 0;
+};
+
+// Appends patch k's points to `out`: with `overlap` all of them, otherwise those of its region
+// against `neighbours` (exactly N_k, any order). `clip`, when not null, drops points outside it
+// (inclusive bounds). `out` must have normals/colours arrays in step with its positions when
+// the code word has them.
+void emit_patch(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rotation,
+                const Vec3f& centre, const CodewordView& codeword,
+                std::span<const Neighbour> neighbours, bool overlap, const Box3f* clip,
+                PointCloud& out);
+
+}  // namespace sspc::codec
