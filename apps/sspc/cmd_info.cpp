@@ -38,6 +38,7 @@ std::string format_vec3(const Vec3f& v) {
 }
 
 int run_info(const InfoOptions& options, const GlobalOptions& global) {
+  if (is_sspc_file(options.input)) return run_info_sspc(options.input, options.json);
   auto progress = make_progress(global);
   ReadOptions read_options;
   read_options.progress = progress.get();
@@ -86,7 +87,7 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
 Command add_info_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* app = root.add_subcommand("info", "Describe a point cloud: points, attributes, bounds, spacing");
-  app->add_option("file", options->input, "Point cloud (.ply, .xyz/.pts, .pcd)")
+  app->add_option("file", options->input, "Point cloud (.ply, .xyz/.pts, .pcd) or compressed model (.sspc)")
       ->required();
   app->add_flag("--json", options->json, "Machine-readable output on stdout");
   return {app, [options, &global] { return run_info(*options, global); }};

@@ -30,6 +30,12 @@ struct Command {
 Command add_info_command(CLI::App& root, const GlobalOptions& global);
 Command add_normals_command(CLI::App& root, const GlobalOptions& global);
 Command add_eval_command(CLI::App& root, const GlobalOptions& global);
+Command add_decode_command(CLI::App& root, const GlobalOptions& global);
+Command add_verify_command(CLI::App& root, const GlobalOptions& global);
+
+// The .sspc branch of `sspc info` (cmd_info_sspc.cpp): files that start with the .sspc magic.
+bool is_sspc_file(const std::string& path);
+int run_info_sspc(const std::string& path, bool as_json);
 
 // Prints "sspc: error: ..." on stderr and returns kExitFailure.
 int report_failure(const Status& status);

@@ -337,8 +337,6 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
 
 Status CompressedModel::verify() const {
   const codec::ContainerReader& reader = impl_->reader;
-  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kCodebookBlocks));
-  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kPatchBlocks));
   const std::size_t p_blocks = reader.patch_blocks().size();
   const std::size_t c_blocks = reader.codebook_blocks().size();
   std::vector<Status> status(p_blocks + c_blocks);
@@ -351,7 +349,11 @@ Status CompressedModel::verify() const {
       status[i] = reader.read_codewords(i - p_blocks, block);
     }
   });
+  // Blocks first: their errors say which block and where; the section CRCs then catch what
+  // no block covers.
   for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kCodebookBlocks));
+  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kPatchBlocks));
   return Status();
 }
 

@@ -1,0 +1,121 @@
+// sspc decode IN.sspc OUT.ply: the whole model, one patch (--patch) or a box (--box), as PLY.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "command.hpp"
+#include "json_writer.hpp"
+#include "sspc/compressed_model.hpp"
+#include "sspc/io.hpp"
+
+namespace sspc::cli {
+namespace {
+
+struct DecodeCliOptions {
+  std::string input;
+  std::string output;
+  std::string box;
+  long long patch = -1;
+  bool overlap = false;
+  bool ascii = false;
+  bool force = false;
+  bool json = false;
+};
+
+// "x0,y0,z0,x1,y1,z1" → a box (min, max corners).
+std::optional<Box3f> parse_box(const std::string& text) {
+  int commas = 0;
+  std::size_t split = std::string::npos;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == ',' && ++commas == 3) split = i;
+  }
+  if (commas != 5 || split == std::string::npos) return std::nullopt;
+  const auto lo = parse_vec3(text.substr(0, split));
+  const auto hi = parse_vec3(text.substr(split + 1));
+  if (!lo || !hi || !(lo->array() <= hi->array()).all()) return std::nullopt;
+  return Box3f(*lo, *hi);
+}
+
+int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
+  std::error_code ec;
+  if (!o.force && std::filesystem::exists(o.output, ec)) {
+    return report_failure(invalid_argument(o.output + ": exists; pass -f/--force to overwrite it"));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto model = CompressedModel::open(o.input);
+  if (!model.ok()) return report_failure(model.status());
+  auto progress = make_progress(global);
+  DecodeOptions options;
+  options.overlap = o.overlap;
+  options.progress = progress.get();
+
+  StatusOr<PointCloud> cloud = invalid_argument("nothing decoded");
+  if (o.patch >= 0) {
+    cloud = model->decode_patch(static_cast<std::size_t>(o.patch), options);
+  } else if (!o.box.empty()) {
+    cloud = model->decode_box(*parse_box(o.box), options);  // validated by CLI11
+  } else {
+    cloud = model->decode_all(options);
+  }
+  if (!cloud.ok()) return report_failure(cloud.status());  // names the file already
+  const double decode_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  PlyWriteOptions ply;
+  ply.encoding = o.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
+  ply.comments.push_back("decoded by sspc from " +
+                         std::filesystem::path(o.input).filename().string());
+  const Status written = write_ply(*cloud, o.output, ply);
+  if (!written.ok()) return report_failure(written);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double rate = decode_seconds > 0 ? static_cast<double>(cloud->size()) / decode_seconds : 0;
+
+  if (o.json) {
+    JsonWriter json;
+    json.begin_object();
+    json.field("input", o.input).field("output", o.output);
+    json.field("points", static_cast<std::uint64_t>(cloud->size()));
+    json.field("decode_seconds", decode_seconds).field("seconds", seconds);
+    json.field("points_per_second", rate);
+    json.end_object();
+    print_line(json.str());
+  } else {
+    std::fprintf(stderr, "%s: %zu points in %.3f s (decode %.1f M points/s)\n", o.output.c_str(),
+                 cloud->size(), seconds, rate / 1e6);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
+  auto o = std::make_shared<DecodeCliOptions>();
+  CLI::App* app =
+      root.add_subcommand("decode", "Decode an .sspc file (all of it, one patch or a box) to PLY");
+  app->add_option("input", o->input, "Compressed model (.sspc)")->required();
+  app->add_option("output", o->output, "Point cloud to write (.ply)")->required();
+  auto* box =
+      app->add_option("--box", o->box, "Only the points in this box")
+          ->type_name("X0,Y0,Z0,X1,Y1,Z1")
+          ->check(CLI::Validator(
+              [](std::string& text) -> std::string {
+                return parse_box(text) ? std::string() : "expected six finite numbers, min ≤ max";
+              },
+              "BOX"));
+  app->add_option("--patch", o->patch,
+                  "Only patch K (its region, or its whole sphere with --overlap)")
+      ->type_name("K")
+      ->check(CLI::NonNegativeNumber)
+      ->excludes(box);
+  app->add_flag("--overlap", o->overlap, "Keep every patch's whole sphere (no region test)");
+  app->add_flag("--ascii", o->ascii, "Write ASCII PLY instead of binary");
+  app->add_flag("-f,--force", o->force, "Overwrite the output if it exists");
+  app->add_flag("--json", o->json, "Machine-readable summary on stdout");
+  return {app, [o, &global] { return run_decode(*o, global); }};
+}
+
+}  // namespace sspc::cli

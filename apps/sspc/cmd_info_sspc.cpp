@@ -1,0 +1,112 @@
+// The .sspc branch of `sspc info`: header, sections and their sizes, patches, code words,
+// code-book ratio and bits per point.
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "command.hpp"
+#include "json_writer.hpp"
+#include "sspc/compressed_model.hpp"
+
+namespace sspc::cli {
+namespace {
+
+void write_vec3(JsonWriter& json, const Vec3f& v) {
+  json.begin_array().value(double{v.x()}).value(double{v.y()}).value(double{v.z()}).end_array();
+}
+
+}  // namespace
+
+bool is_sspc_file(const std::string& path) {
+  static constexpr char kMagic[8] = {'\x8A', 'S', 'P', 'C', '\r', '\n', '\x1A', '\n'};
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  return in.read(head, sizeof head) && std::memcmp(head, kMagic, sizeof head) == 0;
+}
+
+int run_info_sspc(const std::string& path, bool as_json) {
+  auto model = CompressedModel::open(path);
+  if (!model.ok()) return report_failure(model.status());
+  const ModelInfo m = model->info();
+  std::string attributes = "positions";
+  if (m.has_normals) attributes += " normals";
+  if (m.has_colors) attributes += " colors";
+
+  if (as_json) {
+    JsonWriter json;
+    json.begin_object();
+    json.field("file", path).field("format", "sspc").field("version", m.version);
+    json.field("file_bytes", m.file_bytes);
+    json.field("normals", m.has_normals).field("colors", m.has_colors);
+    json.field("source_points", m.source_points);
+    json.field("patches", m.patches).field("codewords", m.codewords);
+    json.field("codeword_points", m.codeword_points);
+    json.field("codebook_ratio", m.codebook_ratio).field("bits_per_point", m.bits_per_point);
+    json.field("patch_radius", double{m.patch_radius});
+    json.field("coverage_radius", double{m.coverage_radius});
+    json.field("codeword_radius", double{m.codeword_radius});
+    json.field("spacing", double{m.spacing});
+    json.key("bbox_min");
+    write_vec3(json, m.bounds.min());
+    json.key("bbox_max");
+    write_vec3(json, m.bounds.max());
+    json.field("position_bits", m.position_bits).field("normal_bits", m.normal_bits);
+    json.field("rotation_bits", m.rotation_bits);
+    json.field("translation_step", double{m.translation_step});
+    json.field("patches_per_block", static_cast<std::uint64_t>(m.patches_per_block));
+    json.field("codewords_per_block", static_cast<std::uint64_t>(m.codewords_per_block));
+    json.key("sections").begin_array();
+    json.begin_object().field("name", "header").field("offset", std::uint64_t{0});
+    json.field("bytes", m.header_bytes).end_object();
+    for (const SectionInfo& s : m.sections) {
+      json.begin_object().field("name", s.name).field("offset", s.offset);
+      json.field("bytes", s.bytes).field("raw_bytes", s.raw_bytes).field("blocks", s.blocks);
+      json.end_object();
+    }
+    json.end_array();
+    json.end_object();
+    print_line(json.str());
+    return kExitOk;
+  }
+  auto pct = [&m](std::uint64_t b) {
+    return m.file_bytes == 0 ? 0.0
+                             : 100.0 * static_cast<double>(b) / static_cast<double>(m.file_bytes);
+  };
+  std::printf("file           %s (%llu bytes, sspc version %d)\n", path.c_str(),
+              static_cast<unsigned long long>(m.file_bytes), m.version);
+  std::printf("attributes     %s\n", attributes.c_str());
+  std::printf("source points  %llu\n", static_cast<unsigned long long>(m.source_points));
+  std::printf("patches        %llu\n", static_cast<unsigned long long>(m.patches));
+  std::printf("code words     %llu (%llu points)\n", static_cast<unsigned long long>(m.codewords),
+              static_cast<unsigned long long>(m.codeword_points));
+  std::printf("code-book ratio %.3f (patches / code words)\n", m.codebook_ratio);
+  std::printf("bits per point %.3f (file bytes × 8 / source points)\n", m.bits_per_point);
+  std::printf("patch radius   %.9g (coverage %.9g, code words reach %.9g)\n",
+              double{m.patch_radius}, double{m.coverage_radius}, double{m.codeword_radius});
+  std::printf("spacing        %.9g\n", double{m.spacing});
+  std::printf("bbox min       %.9g %.9g %.9g\n", double{m.bounds.min().x()},
+              double{m.bounds.min().y()}, double{m.bounds.min().z()});
+  std::printf("bbox max       %.9g %.9g %.9g\n", double{m.bounds.max().x()},
+              double{m.bounds.max().y()}, double{m.bounds.max().z()});
+  std::printf(
+      "quantisation   positions %d bits, normals %d bits, rotations %d bits, "
+      "translation step %.9g\n",
+      m.position_bits, m.normal_bits, m.rotation_bits, double{m.translation_step});
+  std::printf("blocks         %u patches, %u code words per block\n", m.patches_per_block,
+              m.codewords_per_block);
+  std::printf("sections\n");
+  std::printf("  %-22s %12s %12s %8s %7s\n", "name", "bytes", "raw bytes", "blocks", "share");
+  std::printf("  %-22s %12llu %12llu %8s %6.1f%%\n", "header",
+              static_cast<unsigned long long>(m.header_bytes),
+              static_cast<unsigned long long>(m.header_bytes), "-", pct(m.header_bytes));
+  for (const SectionInfo& s : m.sections) {
+    std::printf("  %-22s %12llu %12llu %8llu %6.1f%%\n", s.name.c_str(),
+                static_cast<unsigned long long>(s.bytes),
+                static_cast<unsigned long long>(s.raw_bytes),
+                static_cast<unsigned long long>(s.blocks), pct(s.bytes));
+  }
+  return kExitOk;
+}
+
+}  // namespace sspc::cli
