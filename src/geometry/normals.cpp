@@ -1,0 +1,107 @@
+// The normals API: argument checks, the k-NN search shared by the PCA and the orientation, and
+// the keep / estimate / auto policy. The algorithms live in normals_pca.cpp (Hoppe 1992 §3.2)
+// and normals_orientation.cpp (Hoppe 1992 §3.3).
+#include "sspc/normals.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "geometry/normals_steps.hpp"
+#include "sspc/neighbors.hpp"
+
+namespace sspc {
+
+namespace {
+
+constexpr int kMinNeighbours = 3;
+constexpr int kMaxNeighbours = 256;
+
+Status check_options(const PointCloud& cloud, const NormalOptions& options) {
+  if (options.k < kMinNeighbours || options.k > kMaxNeighbours) {
+    return invalid_argument("normals: k must be in [" + std::to_string(kMinNeighbours) + ", " +
+                            std::to_string(kMaxNeighbours) + "], got " + std::to_string(options.k));
+  }
+  if (cloud.size() < 3) {
+    return invalid_argument("normals: estimating normals needs at least 3 points, the cloud has " +
+                            std::to_string(cloud.size()));
+  }
+  if (cloud.size() > std::size_t{0xFFFFFFFFu}) {
+    return resource_exhausted("normals: more than 2^32 - 1 points");
+  }
+  return {};
+}
+
+// Each point's k nearest neighbours, itself included (it is part of its own neighbourhood for
+// the PCA, and its self-edge is harmless to the spanning tree).
+KnnTable neighbourhoods(const PointCloud& cloud, const NormalOptions& options) {
+  progress_begin(options.progress, "normals: neighbours", cloud.size());
+  const KdTree3 tree(cloud.positions);
+  const std::size_t k = std::min(static_cast<std::size_t>(options.k), cloud.size());
+  KnnTable table = tree.knn_batch(cloud.positions, k, false, options.progress);
+  progress_end(options.progress);
+  return table;
+}
+
+void run_pca(PointCloud& cloud, const KnnTable& table, Progress* progress) {
+  cloud.normals.resize(cloud.size());
+  progress_begin(progress, "normals: PCA", cloud.size());
+  detail::estimate_normals_pca(cloud.positions, table, cloud.normals, progress);
+  progress_end(progress);
+}
+
+void run_mst(PointCloud& cloud, const KnnTable& table, Progress* progress) {
+  progress_begin(progress, "normals: orient", cloud.size());
+  detail::orient_normals_mst(cloud.positions, table, cloud.normals, progress);
+  progress_end(progress);
+}
+
+}  // namespace
+
+Status estimate_normals(PointCloud& cloud, const NormalOptions& options) {
+  if (Status s = check_options(cloud, options); !s.ok()) return s;
+  const KnnTable table = neighbourhoods(cloud, options);
+  run_pca(cloud, table, options.progress);
+  return {};
+}
+
+Status orient_normals(PointCloud& cloud, const NormalOptions& options) {
+  if (!cloud.has_normals() || cloud.normals.size() != cloud.size()) {
+    return invalid_argument("normals: orienting normals needs a cloud with normals");
+  }
+  if (options.viewpoint) {
+    detail::orient_normals_towards(cloud.positions, *options.viewpoint, cloud.normals);
+    return {};
+  }
+  if (Status s = check_options(cloud, options); !s.ok()) return s;
+  const KnnTable table = neighbourhoods(cloud, options);
+  run_mst(cloud, table, options.progress);
+  return {};
+}
+
+Status ensure_normals(PointCloud& cloud, const NormalOptions& options) {
+  switch (options.mode) {
+    case NormalMode::kKeep:
+      if (!cloud.has_normals()) {
+        return invalid_argument(
+            "normals: mode 'keep' needs normals in the input, and this cloud has none "
+            "(use 'estimate' or 'auto' to compute them)");
+      }
+      return {};
+    case NormalMode::kAuto:
+      if (cloud.has_normals()) return {};
+      break;
+    case NormalMode::kEstimate: break;
+  }
+  if (Status s = check_options(cloud, options); !s.ok()) return s;
+  // One k-NN search serves both steps.
+  const KnnTable table = neighbourhoods(cloud, options);
+  run_pca(cloud, table, options.progress);
+  if (options.viewpoint) {
+    detail::orient_normals_towards(cloud.positions, *options.viewpoint, cloud.normals);
+  } else {
+    run_mst(cloud, table, options.progress);
+  }
+  return {};
+}
+
+}  // namespace sspc

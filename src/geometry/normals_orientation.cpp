@@ -1,0 +1,136 @@
+// Consistent normal orientation (Hoppe, DeRose, Duchamp, McDonald, Stuetzle: "Surface
+// reconstruction from unorganized points", SIGGRAPH 1992, section 3.3).
+//
+// PCA leaves each normal's sign arbitrary. Hoppe propagates a sign along a minimum spanning tree
+// of the neighbour graph weighted by 1 − |n_i·n_j|: the tree prefers edges between nearly
+// parallel planes, so a flip decision is only taken where it is unambiguous, and a child is
+// flipped when n_parent·n_child < 0. Differences from the paper, on purpose:
+//  - the graph is the symmetrised k-NN graph (the paper's Riemannian graph adds the Euclidean
+//    MST's edges); with k = 16 it connects a surface sampled well enough for the PCA itself;
+//  - the paper seeds at the highest point and forces its normal to +z. The relative orientation
+//    along a given tree does not depend on where propagation starts, so Prim starts at the
+//    component's lowest index, and the whole component is flipped at the end if its highest
+//    point (max z, ties: lower index) faces down: the paper's rule without sorting the points
+//    by height. (Only where edge costs tie exactly can Prim from another root pick another,
+//    equally minimal, tree.)
+//
+// Prim's algorithm over the table's rows plus reverse edges, with a 4-ary indexed heap
+// (normals_prim_heap.hpp) whose keys order by cost and then by point index. It runs sequentially;
+// the pop order is fixed by those unique keys, not by the order in which a point's edges are
+// relaxed, so the result depends neither on the thread count nor on the tree that produced the
+// (canonical) k-NN table.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "core/parallel.hpp"
+#include "geometry/normals_prim_heap.hpp"
+#include "geometry/normals_steps.hpp"
+
+namespace sspc::detail {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+// The k-NN graph made symmetric: a point's neighbours are its own k-NN row plus every point
+// whose row names it. The reverse half is built here as compressed rows (CSR); the forward half
+// is the table itself.
+struct ReverseEdges {
+  std::vector<std::uint64_t> offsets;  // points + 1
+  std::vector<std::uint32_t> sources;
+
+  std::span<const std::uint32_t> of(std::size_t i) const {
+    return {sources.data() + offsets[i], static_cast<std::size_t>(offsets[i + 1] - offsets[i])};
+  }
+};
+
+// Counting sort of the table's edges by target, in parallel. The order of sources within a
+// point's list depends on thread timing; Prim's result does not depend on it (see
+// orient_normals_mst), so the orientation stays deterministic.
+ReverseEdges reverse_edges(const KnnTable& table, std::size_t points) {
+  std::vector<std::uint32_t> degree(points, 0);
+  parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      for (const std::uint32_t j : table.row(i)) {
+        std::atomic_ref<std::uint32_t>(degree[j]).fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+  });
+  ReverseEdges reverse;
+  reverse.offsets.resize(points + 1);
+  reverse.offsets[0] = 0;
+  for (std::size_t i = 0; i < points; ++i) reverse.offsets[i + 1] = reverse.offsets[i] + degree[i];
+  reverse.sources.resize(reverse.offsets[points]);
+  std::vector<std::uint64_t> cursor(reverse.offsets.begin(), reverse.offsets.end() - 1);
+  parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      for (const std::uint32_t j : table.row(i)) {
+        const std::uint64_t at =
+            std::atomic_ref<std::uint64_t>(cursor[j]).fetch_add(1, std::memory_order_relaxed);
+        reverse.sources[at] = static_cast<std::uint32_t>(i);
+      }
+    }
+  });
+  return reverse;
+}
+
+bool higher(const Vec3f& a, std::uint32_t ia, const Vec3f& b, std::uint32_t ib) {
+  return a.z() > b.z() || (a.z() == b.z() && ia < ib);
+}
+
+}  // namespace
+
+void orient_normals_mst(std::span<const Vec3f> positions, const KnnTable& neighbours,
+                        std::span<Vec3f> normals, Progress* progress) {
+  const std::size_t n = normals.size();
+  const ReverseEdges reverse = reverse_edges(neighbours, n);
+
+  PrimHeap heap(n);
+  std::vector<std::uint32_t> parent(n, kNone);
+  std::vector<std::uint32_t> component;  // the current component's points, in visit order
+  std::size_t visited = 0;
+
+  for (std::size_t start = 0; start < n; ++start) {
+    if (heap.done(static_cast<std::uint32_t>(start))) continue;
+    component.clear();
+    auto top = static_cast<std::uint32_t>(start);
+    heap.push_or_decrease(0.0f, top);
+    while (!heap.empty()) {
+      const std::uint32_t v = heap.pop();
+      component.push_back(v);
+      if (parent[v] != kNone && normals[parent[v]].dot(normals[v]) < 0.0f) normals[v] = -normals[v];
+      if (higher(positions[v], v, positions[top], top)) top = v;
+
+      const Vec3f nv = normals[v];
+      auto relax = [&](std::uint32_t w) {
+        if (heap.done(w)) return;
+        // max(): |n·n| of two unit floats can exceed 1 by an ulp, and a negative cost's bits
+        // would sort after every positive one (the max also turns -0 into +0).
+        const float cost = std::max(0.0f, 1.0f - std::abs(nv.dot(normals[w])));
+        if (heap.push_or_decrease(cost, w)) parent[w] = v;
+      };
+      for (const std::uint32_t w : neighbours.row(v)) relax(w);
+      for (const std::uint32_t w : reverse.of(v)) relax(w);
+
+      if ((++visited & 0xFFFFu) == 0) progress_advance(progress, 0x10000u);
+    }
+    // The seed rule: the component's highest point faces +z.
+    if (normals[top].z() < 0.0f) {
+      for (const std::uint32_t v : component) normals[v] = -normals[v];
+    }
+  }
+  progress_advance(progress, visited & 0xFFFFu);
+}
+
+void orient_normals_towards(std::span<const Vec3f> positions, const Vec3f& viewpoint,
+                            std::span<Vec3f> normals) {
+  parallel_for(0, normals.size(), 4096, [&](std::size_t i) {
+    if (normals[i].dot(viewpoint - positions[i]) < 0.0f) normals[i] = -normals[i];
+  });
+}
+
+}  // namespace sspc::detail

@@ -1,0 +1,29 @@
+// The steps of normal estimation, apart so that ensure_normals can run the k-NN search once and
+// hand the same table to the PCA and to the orientation, and so that benchmarks can time each.
+#pragma once
+
+#include <span>
+
+#include "sspc/neighbors.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+
+namespace sspc::detail {
+
+// Unit normals by PCA over each point's row of `neighbours` (the point itself included): the
+// eigenvector of the smallest eigenvalue of the neighbourhood's covariance. Parallel; each
+// normal depends only on its own row, so the result is independent of the thread count.
+void estimate_normals_pca(std::span<const Vec3f> positions, const KnnTable& neighbours,
+                          std::span<Vec3f> normals, Progress* progress);
+
+// Hoppe et al. 1992, section 3.3: flips normals to agree along a minimum spanning tree of the
+// symmetrised k-NN graph with edge cost 1 − |n_i·n_j|; in each connected component the highest
+// point's normal faces +z. Sequential and deterministic (heap ties broken by index).
+void orient_normals_mst(std::span<const Vec3f> positions, const KnnTable& neighbours,
+                        std::span<Vec3f> normals, Progress* progress);
+
+// Flips every normal to face `viewpoint` (n·(viewpoint − p) ≥ 0).
+void orient_normals_towards(std::span<const Vec3f> positions, const Vec3f& viewpoint,
+                            std::span<Vec3f> normals);
+
+}  // namespace sspc::detail
