@@ -87,7 +87,8 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
 Command add_info_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* app = root.add_subcommand("info", "Describe a point cloud: points, attributes, bounds, spacing");
-  app->add_option("file", options->input, "Point cloud (.ply, .xyz/.pts, .pcd) or compressed model (.sspc)")
+  app->add_option("file", options->input,
+                  "Point cloud (.ply, .xyz/.pts, .pcd) or compressed model (.sspc)")
       ->required();
   app->add_flag("--json", options->json, "Machine-readable output on stdout");
   return {app, [options, &global] { return run_info(*options, global); }};

@@ -22,7 +22,7 @@ struct QuantOptions {
   int normal_bits = 10;        // per octahedral component
   int rotation_bits = 13;      // per smallest-three component: error < the position step
   float translation_step = 0;  // 0: spacing / 64 (patch_radius / 256 when spacing is 0)
-  std::uint32_t patches_per_block = 32;
+  std::uint32_t patches_per_block = 64;   // bench/decode_bench: see FORMAT.md
   std::uint32_t codewords_per_block = 4;
   int zstd_level = 19;
 };

@@ -30,7 +30,6 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
                 const Box3f* clip, PointCloud& out) {
   thread_local std::vector<FrameNeighbour> frame;
   frame.clear();
-  float min_ee = std::numeric_limits<float>::infinity();
   if (!overlap) {
     for (const Neighbour& n : neighbours) {
       const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
@@ -43,26 +42,26 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
       f.ee = f.x * f.x + f.y * f.y + f.z * f.z;
       f.index = n.index;
       frame.push_back(f);
-      min_ee = std::min(min_ee, f.ee);
     }
-    // Nearest first: most rejections happen on the first test. The order does not change which
-    // points are kept.
+    // Nearest first: most rejections happen on the first tests, and the loop below can stop at
+    // the first neighbour too far away to matter. The order does not change which points are
+    // kept.
     std::sort(frame.begin(), frame.end(), [](const FrameNeighbour& a, const FrameNeighbour& b) {
       return a.ee < b.ee || (a.ee == b.ee && a.index < b.index);
     });
   }
-  // Points with |q| < 0.499·min|e_j| satisfy every test with a wide margin (s ≥ 0.002·|e_j|²).
-  const float quick = 0.499f * std::sqrt(min_ee);
-  const float quick2 =
-      std::isfinite(quick) ? quick * quick : std::numeric_limits<float>::infinity();
-
   const bool normals = cw.normals != nullptr;
   const bool colors = cw.colors != nullptr;
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
-    if (!overlap && !(cw.norm2[i] < quick2)) {
+    if (!overlap) {
+      // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away
+      // and cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop
+      // stops there. Skipping them never changes the outcome of the rule.
+      const float reach = 4.001f * cw.norm2[i];
       bool keep = true;
       for (const FrameNeighbour& f : frame) {
+        if (f.ee > reach) break;
         const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
         if (s > 0.0f || (s == 0.0f && k < f.index)) continue;
         keep = false;
