@@ -52,10 +52,20 @@ bool parse_color_token(std::string_view tok, std::uint8_t& out) {
   return true;
 }
 
+// Windows tools (Notepad, Excel's CSV export) may open the text with a UTF-8 byte order mark.
+std::string_view without_bom(std::string_view text) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  return text;
+}
+
 class XyzReader {
  public:
   XyzReader(std::span<const std::byte> data, std::string_view name, Progress* progress)
-      : text_(as_text(data)), name_(name), progress_(progress), lines_(text_) {}
+      : text_(without_bom(as_text(data))),
+        name_(name),
+        progress_(progress),
+        lines_(text_),
+        bom_(data.size() - text_.size()) {}
 
   StatusOr<PointCloud> read() {
     std::optional<std::uint64_t> declared;
@@ -98,7 +108,7 @@ class XyzReader {
                                std::to_string(cloud_.size()));
     }
     if (columns_ == XyzColumns::kXyzNormalsOrRgb) six_columns_to_colors();
-    progress_advance(progress_, text_.size() - reported_);
+    progress_advance(progress_, bom_ + text_.size() - reported_);
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud_, name_));
     return std::move(cloud_);
   }
@@ -229,6 +239,7 @@ class XyzReader {
   std::size_t first_line_ = 0;
   bool colors_possible_ = true;  // six columns: every trailing value so far an integer 0..255
   bool above_one_ = false;       // six columns: some trailing value above 1
+  std::size_t bom_;
   std::size_t reported_ = 0;
 };
 

@@ -94,5 +94,25 @@ TEST(ReadPointCloud, ReportsProgressInBytes) {
   EXPECT_EQ(progress.total_, std::filesystem::file_size(path));
 }
 
+TEST(ReadPointCloud, ReportsProgressInBytesForEveryFormat) {
+  test::TempDir dir;
+  std::string pcd = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nDATA binary\n";
+  for (float v : {1.0f, 2.0f, 3.0f}) test::put(pcd, v);
+  pcd += "padding";  // ignored, but read
+  write_text(dir.path() / "p.pcd", pcd);
+  write_text(dir.path() / "p.xyz", "1 2 3\n4 5 6\n");
+  PlyWriteOptions ascii;
+  ascii.encoding = PlyEncoding::kAscii;
+  write_text(dir.path() / "a.ply", encode_ply(test::sample_cloud(5, true, false), ascii));
+  for (const char* name : {"p.pcd", "p.xyz", "a.ply"}) {
+    CountingProgress progress;
+    ReadOptions options;
+    options.progress = &progress;
+    ASSERT_TRUE(read_point_cloud(dir.path() / name, options).ok()) << name;
+    EXPECT_EQ(progress.done_, progress.total_) << name;
+    EXPECT_EQ(progress.total_, std::filesystem::file_size(dir.path() / name)) << name;
+  }
+}
+
 }  // namespace
 }  // namespace sspc

@@ -25,6 +25,14 @@ TEST(XyzReader, ThreeColumnsWithCommentsBlankLinesAndCrlf) {
   EXPECT_FALSE(c->has_colors());
 }
 
+TEST(XyzReader, Utf8ByteOrderMark) {
+  const StatusOr<PointCloud> c = read(
+      "\xEF\xBB\xBF"
+      "1 2 3\n");
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  EXPECT_EQ(c->positions[0], Vec3f(1, 2, 3));
+}
+
 TEST(XyzReader, CommaSeparated) {
   const StatusOr<PointCloud> c = read("1,2,3\n4, 5, 6\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
