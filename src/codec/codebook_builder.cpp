@@ -1,0 +1,276 @@
+// Greedy code-book construction (Hubo et al. 2007, §4.3).
+#include "codec/codebook_builder.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Eigenvalues>
+
+#include "codec/canonical_frame.hpp"
+#include "codec/codeword_surface.hpp"
+#include "codec/icp.hpp"
+#include "core/parallel.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+// Patches as compressed rows of point indices.
+struct Patches {
+  std::vector<std::uint64_t> offsets;  // patches + 1
+  std::vector<std::uint32_t> indices;
+  std::span<const std::uint32_t> operator[](std::size_t k) const {
+    return {indices.data() + offsets[k], static_cast<std::size_t>(offsets[k + 1] - offsets[k])};
+  }
+  std::size_t size() const { return offsets.size() - 1; }
+};
+
+Patches gather_patches(const KdTree3& tree, std::span<const Vec3f> centres, float radius) {
+  std::vector<std::vector<std::uint32_t>> rows(centres.size());
+  parallel_for_ranges(0, centres.size(), 64, [&](std::size_t begin, std::size_t end) {
+    std::vector<Neighbor> near;
+    for (std::size_t k = begin; k < end; ++k) {
+      tree.radius(centres[k], radius, near, false);
+      rows[k].reserve(near.size());
+      for (const Neighbor& nb : near) rows[k].push_back(nb.index);
+      std::sort(rows[k].begin(), rows[k].end());
+    }
+  });
+  Patches patches;
+  patches.offsets.resize(centres.size() + 1, 0);
+  for (std::size_t k = 0; k < rows.size(); ++k) patches.offsets[k + 1] = patches.offsets[k] + rows[k].size();
+  patches.indices.resize(patches.offsets.back());
+  parallel_for(0, rows.size(), 256, [&](std::size_t k) {
+    std::copy(rows[k].begin(), rows[k].end(), patches.indices.begin() + static_cast<std::ptrdiff_t>(patches.offsets[k]));
+  });
+  return patches;
+}
+
+// Surface variation λ0 / (λ0 + λ1 + λ2) of the patch's points (Pauly et al. 2002): 0 on a plane,
+// up to 1/3 for isotropic scatter. The greedy selection takes the flattest patches first.
+float surface_variation(std::span<const Vec3f> positions, std::span<const std::uint32_t> indices) {
+  if (indices.size() < 3) return 0;
+  Vec3d mean = Vec3d::Zero();
+  for (std::uint32_t i : indices) mean += positions[i].cast<double>();
+  mean /= static_cast<double>(indices.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::uint32_t i : indices) {
+    const Vec3d d = positions[i].cast<double>() - mean;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(cov, Eigen::EigenvaluesOnly);
+  const Vec3d l = solver.eigenvalues().cwiseMax(0.0);
+  const double sum = l.sum();
+  return sum > 0 ? static_cast<float>(l(0) / sum) : 0.0f;
+}
+
+struct PatchFrames {
+  std::vector<RigidTransform> world_from_canonical;
+  std::vector<float> curvature;
+  std::vector<float> descriptors;  // patches × dimension
+};
+
+PatchFrames describe_patches(const PointCloud& cloud, const Patches& patches, const DescriptorParams& params) {
+  PatchFrames f;
+  const std::size_t n = patches.size();
+  const auto dim = static_cast<std::size_t>(params.dimension());
+  f.world_from_canonical.resize(n);
+  f.curvature.resize(n);
+  f.descriptors.resize(n * dim);
+  parallel_for_ranges(0, n, 64, [&](std::size_t begin, std::size_t end) {
+    std::vector<Vec3f> canonical_normals;
+    for (std::size_t k = begin; k < end; ++k) {
+      const auto idx = patches[k];
+      const CanonicalFrame frame = canonical_frame(cloud.positions, cloud.normals, idx);
+      f.world_from_canonical[k] = frame.world_from_canonical;
+      const Eigen::Matrix3f canonical_from_world = frame.world_from_canonical.rotation.transpose();
+      canonical_normals.clear();
+      for (std::uint32_t i : idx) canonical_normals.push_back(canonical_from_world * cloud.normals[i]);
+      compute_descriptor(canonical_normals, params, std::span<float>(f.descriptors.data() + k * dim, dim));
+      f.curvature[k] = surface_variation(cloud.positions, idx);
+    }
+  });
+  return f;
+}
+
+// The code word taken from patch `rep`: its points in the frame with origin at the centre and
+// the canonical rotation.
+CodeWord make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> idx,
+                       const RigidTransform& world_from_codeword) {
+  const RigidTransform codeword_from_world = world_from_codeword.inverse();
+  CodeWord cw;
+  cw.points.reserve(idx.size());
+  for (std::uint32_t i : idx) cw.points.push_back(codeword_from_world.apply(cloud.positions[i]));
+  if (cloud.has_normals()) {
+    cw.normals.reserve(idx.size());
+    for (std::uint32_t i : idx) cw.normals.push_back(codeword_from_world.apply_vector(cloud.normals[i]));
+  }
+  if (cloud.has_colors()) {
+    cw.colors.reserve(idx.size());
+    for (std::uint32_t i : idx) cw.colors.push_back(cloud.colors[i]);
+  }
+  return cw;
+}
+
+struct Match {
+  bool accepted = false;
+  RigidTransform world_from_codeword;
+};
+
+// Aligns patch k (from its canonical frame) to the code word's surface and applies the paper's
+// error test, plus the checks the region decoder relies on: the code word covers the part of
+// the patch that k's region can claim and adds nothing off the surface, and its origin lands
+// near k's centre.
+Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<const std::uint32_t> idx,
+                const Vec3f& centre,
+                const RigidTransform& world_from_canonical, const RigidTransform& codeword_from_rep_canonical,
+                const CodewordSurface& surface, const CodebookOptions& o) {
+  // Start: k's canonical frame laid onto the representative's canonical frame.
+  const RigidTransform canonical_from_world = world_from_canonical.inverse();
+  std::vector<Vec3f> source;
+  source.reserve(idx.size());
+  for (std::uint32_t i : idx) source.push_back(codeword_from_rep_canonical.apply(canonical_from_world.apply(cloud.positions[i])));
+  IcpOptions icp;
+  icp.max_pair_distance = std::max(3.0f * o.spacing, 0.3f * o.coverage_radius);
+  icp.converged_step = 0.01f * o.spacing;
+  icp.max_iterations = 30;
+  icp.point_to_point_weight = 1.0f;
+  icp.lever_arm = o.patch_radius;
+  const IcpResult aligned = align_point_to_plane(source, surface, icp);
+
+  const RigidTransform codeword_from_world =
+      aligned.target_from_source * codeword_from_rep_canonical * canonical_from_world;
+  const RigidTransform world_from_codeword = codeword_from_world.inverse();
+  Match m;
+  if ((world_from_codeword.translation - centre).norm() > 0.2f * o.coverage_radius) return m;
+
+  const float claim2 = (1.2f * o.coverage_radius) * (1.2f * o.coverage_radius);
+  const float hole = 2.5f * o.spacing;
+  double sse = 0;
+  std::size_t uncovered = 0, claimed = 0;
+  for (std::size_t j = 0; j < source.size(); ++j) {
+    const Vec3f x = codeword_from_world.apply(cloud.positions[idx[j]]);
+    float nearest = 0;
+    const float f = surface.mls_residual(x, &nearest);
+    sse += static_cast<double>(f) * static_cast<double>(f);
+    if ((cloud.positions[idx[j]] - centre).squaredNorm() <= claim2) {
+      ++claimed;
+      if (nearest > hole) ++uncovered;
+    }
+  }
+  const double rms = std::sqrt(sse / static_cast<double>(std::max<std::size_t>(source.size(), 1)));
+  if (rms > static_cast<double>(o.tau * o.spacing)) return m;
+  if (uncovered * 100 > claimed) return m;
+  // And the other way: the code word must not put points where the surface has none (past the
+  // edge of a scan, across a hole), or every decoded model grows a fringe there.
+  const float hole2 = hole * hole;
+  std::size_t stray = 0;
+  for (const Vec3f& p : surface.points()) {
+    float d2 = 0;
+    points_tree.nearest(world_from_codeword.apply(p), &d2);
+    if (d2 > hole2) ++stray;
+  }
+  if (stray * 100 > surface.points().size()) return m;
+  m.accepted = true;
+  m.world_from_codeword = world_from_codeword;
+  return m;
+}
+
+}  // namespace
+
+EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
+                            std::span<const Vec3f> centres, const CodebookOptions& o,
+                            CodebookStats* stats) {
+  Progress* progress = o.progress;
+  EncodedModel model;
+  model.patch_radius = o.patch_radius;
+  model.coverage_radius = o.coverage_radius;
+  model.spacing = o.spacing;
+  model.source_points = cloud.size();
+  model.has_normals = cloud.has_normals();
+  model.has_colors = cloud.has_colors();
+  model.bounds = cloud.bounding_box();
+  const std::size_t n = centres.size();
+
+  progress_begin(progress, "patches: gather, frames, descriptors", n, "patches");
+  const Patches patches = gather_patches(points_tree, centres, o.patch_radius);
+  const PatchFrames frames = describe_patches(cloud, patches, o.descriptor);
+  progress_advance(progress, n);
+  progress_end(progress);
+
+  const auto dim = static_cast<std::size_t>(o.descriptor.dimension());
+  const KdTreeL1 descriptor_tree(frames.descriptors, dim);
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return frames.curvature[a] < frames.curvature[b] || (frames.curvature[a] == frames.curvature[b] && a < b);
+  });
+
+  constexpr std::uint32_t kUnassigned = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> assigned(n, kUnassigned);
+  model.patches.resize(n);
+  std::size_t tested = 0, accepted = 0, done = 0;
+  std::vector<L1Neighbor> near;
+  std::vector<std::uint32_t> candidates;
+  std::vector<Match> matches;
+  progress_begin(progress, "code book: greedy clustering", n, "patches");
+  for (const std::uint32_t rep : order) {
+    if (assigned[rep] != kUnassigned) continue;
+    const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
+    // The code word's frame: the representative's canonical rotation about its centre.
+    RigidTransform world_from_codeword;
+    world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
+    world_from_codeword.translation = centres[rep];
+    model.codebook.push_back(make_codeword(cloud, patches[rep], world_from_codeword));
+    model.patches[rep] = {cw_index, world_from_codeword};
+    assigned[rep] = cw_index;
+    ++done;
+
+    descriptor_tree.radius(std::span<const float>(frames.descriptors.data() + rep * dim, dim), o.epsilon, near);
+    candidates.clear();
+    for (const L1Neighbor& nb : near) {
+      if (assigned[nb.index] == kUnassigned) candidates.push_back(nb.index);
+    }
+    if (!candidates.empty()) {
+      const CodeWord& cw = model.codebook.back();
+      const CodewordSurface surface(cw.points, cw.normals, 1.5f * o.spacing);
+      const RigidTransform codeword_from_rep_canonical =
+          world_from_codeword.inverse() * frames.world_from_canonical[rep];
+      matches.assign(candidates.size(), Match{});
+      parallel_for(0, candidates.size(), 1, [&](std::size_t c) {
+        const std::uint32_t k = candidates[c];
+        matches[c] = try_match(cloud, points_tree, patches[k], centres[k], frames.world_from_canonical[k],
+                               codeword_from_rep_canonical, surface, o);
+      });
+      tested += candidates.size();
+      for (std::size_t c = 0; c < candidates.size(); ++c) {
+        if (!matches[c].accepted) continue;
+        const std::uint32_t k = candidates[c];
+        assigned[k] = cw_index;
+        model.patches[k] = {cw_index, matches[c].world_from_codeword};
+        ++accepted;
+        ++done;
+      }
+    }
+    if ((cw_index & 255) == 0) progress_advance(progress, 0);
+  }
+  progress_advance(progress, done);
+  progress_end(progress);
+
+  if (stats != nullptr) {
+    stats->patches = n;
+    stats->codewords = model.codebook.size();
+    stats->candidates_tested = tested;
+    stats->accepted = accepted;
+    stats->mean_patch_points = n > 0 ? static_cast<double>(patches.indices.size()) / static_cast<double>(n) : 0.0;
+    std::size_t points = 0;
+    for (const CodeWord& cw : model.codebook) points += cw.points.size();
+    stats->codeword_points = points;
+  }
+  return model;
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,29 @@
+#include "codec/levels.hpp"
+
+#include <array>
+
+namespace sspc::codec {
+
+namespace {
+
+// Larger patches mean fewer transforms per point; a wider ε and τ let more patches share a
+// code word; coarser quantisation costs distortion but few bits. The rows move all of them
+// together, from near-lossless to small.
+constexpr std::array<LevelParams, 10> kLevels = {{
+    {24, 0.20f, 0.10f, 14, 1.0f / 64},
+    {32, 0.30f, 0.15f, 13, 1.0f / 64},
+    {40, 0.40f, 0.20f, 13, 1.0f / 32},
+    {48, 0.50f, 0.25f, 12, 1.0f / 32},
+    {56, 0.60f, 0.30f, 12, 1.0f / 16},
+    {64, 0.70f, 0.35f, 12, 1.0f / 16},
+    {80, 0.85f, 0.45f, 11, 1.0f / 8},
+    {96, 1.00f, 0.55f, 11, 1.0f / 8},
+    {128, 1.20f, 0.70f, 10, 1.0f / 4},
+    {160, 1.50f, 0.90f, 10, 1.0f / 4},
+}};
+
+}  // namespace
+
+LevelParams level_params(int level) { return kLevels[static_cast<std::size_t>(level)]; }
+
+}  // namespace sspc::codec

@@ -1,0 +1,25 @@
+// Rate levels: one table of parameters, as zstd's levels are (SPEC step 7: ε and τ set the
+// rate). Level 0 keeps the most detail, level 9 makes the smallest files. Expert flags override
+// single fields of the row.
+#pragma once
+
+#include <optional>
+
+namespace sspc::codec {
+
+struct LevelParams {
+  int patch_points = 0;        // expected points in one patch sphere
+  float epsilon = 0;           // L1 radius in descriptor space (match distance)
+  float tau = 0;               // MLS RMS error threshold, in units of the point spacing
+  int position_bits = 0;       // code-word coordinates, per axis, over ±patch radius
+  float translation_step = 0;  // patch translations' grid, in units of the point spacing
+};
+
+inline constexpr int kMinLevel = 0;
+inline constexpr int kMaxLevel = 9;
+inline constexpr int kDefaultLevel = 5;
+
+// Requires kMinLevel ≤ level ≤ kMaxLevel.
+LevelParams level_params(int level);
+
+}  // namespace sspc::codec

@@ -1,0 +1,78 @@
+#include "codec/model_builder.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "core/parallel.hpp"
+#include "sspc/neighbors.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points) {
+  // First guess: a disc of area patch_points · spacing².
+  double radius = spacing * std::sqrt(static_cast<double>(patch_points) / std::numbers::pi);
+  const std::size_t samples = std::min<std::size_t>(cloud.size(), 2000);
+  const std::size_t stride = cloud.size() / samples;
+  // Two corrections: the count grows like r² on a surface.
+  for (int round = 0; round < 2; ++round) {
+    const auto r = static_cast<float>(radius);
+    const double total = deterministic_sum<double>(0, samples, [&](std::size_t s) {
+      std::vector<Neighbor> near;
+      tree.radius(cloud.positions[s * stride], r, near, false);
+      return static_cast<double>(near.size());
+    }, 64);
+    const double mean = total / static_cast<double>(samples);
+    if (mean <= 0) break;
+    radius *= std::sqrt(static_cast<double>(patch_points) / mean);
+  }
+  return static_cast<float>(radius);
+}
+
+EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
+  const KdTree3 tree(cloud.positions);
+  const double spacing = nominal_spacing(cloud);
+  const float patch_radius = radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
+  const float coverage_radius = patch_radius / kPatchOverCoverage;
+
+  auto start = std::chrono::steady_clock::now();
+  CentreOptions centre_options;
+  centre_options.coverage_radius = coverage_radius;
+  centre_options.seed = options.seed;
+  centre_options.progress = options.progress;
+  CentreStats centre_stats;
+  const std::vector<Vec3f> centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
+  const double seconds_centres = seconds_since(start);
+
+  start = std::chrono::steady_clock::now();
+  CodebookOptions cb;
+  cb.patch_radius = patch_radius;
+  cb.coverage_radius = coverage_radius;
+  cb.spacing = static_cast<float>(spacing);
+  cb.epsilon = options.level.epsilon;
+  cb.tau = options.level.tau;
+  cb.progress = options.progress;
+  CodebookStats codebook_stats;
+  EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);
+  if (stats != nullptr) {
+    stats->spacing = spacing;
+    stats->patch_radius = patch_radius;
+    stats->coverage_radius = coverage_radius;
+    stats->centres = centre_stats;
+    stats->codebook = codebook_stats;
+    stats->seconds_centres = seconds_centres;
+    stats->seconds_codebook = seconds_since(start);
+  }
+  return model;
+}
+
+}  // namespace sspc::codec

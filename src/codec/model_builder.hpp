@@ -1,0 +1,46 @@
+// The encoder's geometry pipeline (SPEC steps 3–7) from a cloud with normals to the in-memory
+// compressed model: patch size from the point density, centres, patches, code book.
+#pragma once
+
+#include <cstdint>
+
+#include "codec/codebook_builder.hpp"
+#include "codec/encoded_model.hpp"
+#include "codec/levels.hpp"
+#include "codec/patch_centres.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+
+namespace sspc::codec {
+
+// Code words hold the points within patch_radius of a centre; centres cover every point within
+// coverage_radius = patch_radius / kPatchOverCoverage. The margin absorbs the small drift of a
+// matched patch's origin (≤ 0.2 coverage radii, checked) so that the decoder's Voronoi regions
+// stay covered.
+inline constexpr float kPatchOverCoverage = 1.25f;
+
+struct BuildOptions {
+  LevelParams level;
+  std::uint64_t seed = 1;
+  Progress* progress = nullptr;
+};
+
+struct BuildStats {
+  double spacing = 0;
+  double patch_radius = 0;
+  double coverage_radius = 0;
+  CentreStats centres;
+  CodebookStats codebook;
+  double seconds_centres = 0;
+  double seconds_codebook = 0;
+};
+
+// `cloud` must have unit normals and at least 2 distinct points.
+EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);
+
+// The radius whose sphere holds `patch_points` points on average, measured on a deterministic
+// sample of the cloud (the nominal spacing alone misjudges the area per point on noisy or
+// layered scans).
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points);
+
+}  // namespace sspc::codec

@@ -1,0 +1,49 @@
+// Patch centres (Hubo et al. 2007, §4.1; SPEC step 3): centres spread evenly over the surface,
+// drawn to features, and covering every input point.
+//
+// 1. A deterministic Poisson-disk subset of the points (a seeded random order; a point becomes
+//    a centre unless one is already within the coverage radius R). This already covers every
+//    point and gives the even spread Turk's repulsion aims at, in one linear pass.
+// 2. Rounds of Turk/Pauly repulsion (centres closer than R push each other apart) and feature
+//    attraction (c := Σ C_p p / Σ C_p over the points of the patch, C_p the standard deviation
+//    of n_p·n_q over p's neighbours q), each followed by projection onto the tangent plane of
+//    the nearest input point. The rounds are Jacobi steps: new positions from old ones only,
+//    so the result does not depend on the thread count.
+// 3. Coverage repair: moving centres can open gaps, so every point farther than R from all
+//    centres is covered by new centres (greedily, in index order). After it, every input point
+//    lies within R of a centre — the guarantee the decoder's regions rely on.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "sspc/neighbors.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+
+namespace sspc::codec {
+
+struct CentreOptions {
+  float coverage_radius = 0;  // R: every point ends within R of a centre
+  int repulsion_rounds = 2;
+  int attraction_rounds = 1;
+  std::uint64_t seed = 1;
+  Progress* progress = nullptr;
+};
+
+struct CentreStats {
+  std::size_t initial = 0;   // Poisson-disk centres
+  std::size_t repaired = 0;  // added by the coverage repair
+  double max_distance = 0;   // largest distance from a point to its nearest centre (≤ R)
+};
+
+// `points_tree` indexes `cloud.positions`; `cloud` must have unit normals. The centres come back
+// in a spatial (Morton) order. Requires coverage_radius > 0.
+std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& points_tree,
+                                        const CentreOptions& options, CentreStats* stats);
+
+// Every point's distance to its nearest centre, maximum: for tests and statistics.
+double max_distance_to_centres(std::span<const Vec3f> points, std::span<const Vec3f> centres);
+
+}  // namespace sspc::codec
