@@ -15,7 +15,7 @@
 namespace sspc {
 namespace {
 
-struct Run {
+struct CliRun {
   int exit_code = -1;
   std::string out;
   std::string err;
@@ -27,13 +27,13 @@ std::string slurp(const std::filesystem::path& p) {
 }
 
 // Runs `sspc ARGS` with stdout and stderr captured to files in `dir`.
-Run sspc(const test::TempDir& dir, const std::string& args) {
+CliRun sspc(const test::TempDir& dir, const std::string& args) {
   const auto out = dir.path() / "stdout.txt";
   const auto err = dir.path() / "stderr.txt";
   const std::string command = std::string(SSPC_CLI_PATH) + " " + args + " >" + out.string() +
                               " 2>" + err.string() + " </dev/null";
   const int status = std::system(command.c_str());
-  Run run;
+  CliRun run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   run.out = slurp(out);
   run.err = slurp(err);
@@ -46,21 +46,21 @@ TEST(Cli, HelpAndUsageErrors) {
   test::TempDir dir;
   EXPECT_EQ(sspc(dir, "--help").exit_code, 0);
   EXPECT_EQ(sspc(dir, "eval --help").exit_code, 0);
-  Run none = sspc(dir, "");
+  CliRun none = sspc(dir, "");
   EXPECT_EQ(none.exit_code, 2);
-  Run missing_arg = sspc(dir, "eval " + bunny());
+  CliRun missing_arg = sspc(dir, "eval " + bunny());
   EXPECT_EQ(missing_arg.exit_code, 2);
-  Run unknown = sspc(dir, "info --no-such-flag " + bunny());
+  CliRun unknown = sspc(dir, "info --no-such-flag " + bunny());
   EXPECT_EQ(unknown.exit_code, 2);
-  Run bad_k = sspc(dir, "normals " + bunny() + " " + (dir.path() / "o.ply").string() + " -k 1");
+  CliRun bad_k = sspc(dir, "normals " + bunny() + " " + (dir.path() / "o.ply").string() + " -k 1");
   EXPECT_EQ(bad_k.exit_code, 2);
-  Run bad_viewpoint = sspc(dir, "normals " + bunny() + " x.ply --viewpoint 1,2");
+  CliRun bad_viewpoint = sspc(dir, "normals " + bunny() + " x.ply --viewpoint 1,2");
   EXPECT_EQ(bad_viewpoint.exit_code, 2);
 }
 
 TEST(Cli, InfoReportsTheBunny) {
   test::TempDir dir;
-  Run run = sspc(dir, "info --json " + bunny());
+  CliRun run = sspc(dir, "info --json " + bunny());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("\"points\":34834"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("\"normals\":true"), std::string::npos) << run.out;
@@ -69,14 +69,14 @@ TEST(Cli, InfoReportsTheBunny) {
 
 TEST(Cli, MissingAndMalformedInputsFailWithTheFileName) {
   test::TempDir dir;
-  Run missing = sspc(dir, "info " + (dir.path() / "absent.ply").string());
+  CliRun missing = sspc(dir, "info " + (dir.path() / "absent.ply").string());
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.err.find("absent.ply"), std::string::npos) << missing.err;
 
   const auto bad = dir.path() / "bad.ply";
   { std::ofstream(bad) << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n1\n"; }
   const auto out = dir.path() / "out.ply";
-  Run run = sspc(dir, "normals " + bad.string() + " " + out.string());
+  CliRun run = sspc(dir, "normals " + bad.string() + " " + out.string());
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("bad.ply"), std::string::npos) << run.err;
   EXPECT_FALSE(std::filesystem::exists(out)) << "no output after a failure";
@@ -85,10 +85,10 @@ TEST(Cli, MissingAndMalformedInputsFailWithTheFileName) {
 TEST(Cli, NormalsThenEvalAgainstTheOriginal) {
   test::TempDir dir;
   const auto out = dir.path() / "bunny_normals.ply";
-  Run normals = sspc(dir, "normals " + bunny() + " " + out.string() + " --normals estimate");
+  CliRun normals = sspc(dir, "normals " + bunny() + " " + out.string() + " --normals estimate");
   ASSERT_EQ(normals.exit_code, 0) << normals.err;
   ASSERT_TRUE(std::filesystem::exists(out));
-  Run eval = sspc(dir, "eval --json " + bunny() + " " + out.string());
+  CliRun eval = sspc(dir, "eval --json " + bunny() + " " + out.string());
   ASSERT_EQ(eval.exit_code, 0) << eval.err;
   // Same positions: zero error, infinite PSNR written as null, and normals that agree with the
   // mesh-derived ones of the file to within a few degrees on average.
@@ -113,7 +113,7 @@ TEST(Cli, RefusesToOverwriteWithoutForce) {
   test::TempDir dir;
   const auto out = dir.path() / "exists.ply";
   { std::ofstream(out) << "keep me"; }
-  Run run = sspc(dir, "normals " + bunny() + " " + out.string());
+  CliRun run = sspc(dir, "normals " + bunny() + " " + out.string());
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(slurp(out), "keep me");
   EXPECT_EQ(sspc(dir, "normals " + bunny() + " " + out.string() + " --force").exit_code, 0);
@@ -129,14 +129,14 @@ TEST(Cli, EvalOfANoisyCopyGivesAFinitePsnrAndBitsPerPoint) {
   const PointCloud noisy = synthetic::sphere(5000, 1.0, noisy_options);
   ASSERT_TRUE(write_ply(ref, dir.path() / "ref.ply").ok());
   ASSERT_TRUE(write_ply(noisy, dir.path() / "noisy.ply").ok());
-  Run run = sspc(dir, "eval --json " + (dir.path() / "ref.ply").string() + " " +
+  CliRun run = sspc(dir, "eval --json " + (dir.path() / "ref.ply").string() + " " +
                           (dir.path() / "noisy.ply").string() + " --compressed " +
                           (dir.path() / "noisy.ply").string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("\"identical\":false"), std::string::npos) << run.out;
   EXPECT_EQ(run.out.find("\"psnr\":null"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("\"bpp\":"), std::string::npos) << run.out;
-  Run bad_peak = sspc(dir, "eval " + (dir.path() / "ref.ply").string() + " " +
+  CliRun bad_peak = sspc(dir, "eval " + (dir.path() / "ref.ply").string() + " " +
                                (dir.path() / "noisy.ply").string() + " --peak -1");
   EXPECT_EQ(bad_peak.exit_code, 1);
 }
