@@ -113,8 +113,14 @@ void orient_normals_mst(std::span<const Vec3f> positions, const KnnTable& neighb
         const float cost = std::max(0.0f, 1.0f - std::abs(nv.dot(normals[w])));
         if (heap.push_or_decrease(cost, w)) parent[w] = v;
       };
-      for (const std::uint32_t w : neighbours.row(v)) relax(w);
-      for (const std::uint32_t w : reverse.of(v)) relax(w);
+      // The neighbours' heap slots and normals are scattered through memory: ask for all of
+      // them before touching the first, so that the cache misses overlap.
+      const auto forward = neighbours.row(v);
+      const auto backward = reverse.of(v);
+      for (const std::uint32_t w : forward) heap.prefetch(w, normals.data() + w);
+      for (const std::uint32_t w : backward) heap.prefetch(w, normals.data() + w);
+      for (const std::uint32_t w : forward) relax(w);
+      for (const std::uint32_t w : backward) relax(w);
 
       if ((++visited & 0xFFFFu) == 0) progress_advance(progress, 0x10000u);
     }

@@ -3,12 +3,13 @@
 // section 3.2: the tangent plane's normal is the eigenvector of the smallest eigenvalue of the
 // neighbourhood's covariance matrix).
 //
-// The covariance is accumulated in double about the centroid (two passes): real scans sit far
-// from the origin (autzen's coordinates are in the thousands of feet), where the one-pass
+// The covariance is accumulated in double about the centroid (two passes): georeferenced scans
+// sit far from the origin (hundreds of thousands of feet or metres), where the one-pass
 // Σpp^T − n·cc^T would cancel away the small variance across the surface that is the normal.
-// The 3×3 eigenproblem is solved in closed form (Eigen's computeDirect), about three times as
-// fast as the iterative solver here and as accurate for the smallest eigenvector, whose
-// eigenvalue is well separated on a surface (bench/normals_bench.cpp measures both).
+// The 3×3 eigenproblem is solved in closed form (Eigen's computeDirect): the whole PCA runs about
+// 1.6 times as fast as with the iterative solver (5.2 vs 3.2 M points/s on 2 cores), with the
+// same worst angle on a georeferenced sphere, since on a surface the smallest eigenvalue is well
+// separated from the others (bench/normals_bench.cpp, BM_PcaSolver).
 #include <Eigen/Eigenvalues>
 
 #include "core/parallel.hpp"
