@@ -30,6 +30,7 @@ struct Command {
 Command add_info_command(CLI::App& root, const GlobalOptions& global);
 Command add_normals_command(CLI::App& root, const GlobalOptions& global);
 Command add_eval_command(CLI::App& root, const GlobalOptions& global);
+Command add_encode_command(CLI::App& root, const GlobalOptions& global);
 Command add_decode_command(CLI::App& root, const GlobalOptions& global);
 Command add_verify_command(CLI::App& root, const GlobalOptions& global);
 

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   commands.push_back(add_info_command(app, global));
   commands.push_back(add_normals_command(app, global));
   commands.push_back(add_eval_command(app, global));
+  commands.push_back(add_encode_command(app, global));
   commands.push_back(add_decode_command(app, global));
   commands.push_back(add_verify_command(app, global));
 

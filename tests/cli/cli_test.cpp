@@ -141,5 +141,25 @@ TEST(Cli, EvalOfANoisyCopyGivesAFinitePsnrAndBitsPerPoint) {
   EXPECT_EQ(bad_peak.exit_code, 1);
 }
 
+// encode → verify → decode on the bundled bunny: the same bytes on 1 and 2 threads, a decoded
+// point count within 10% of the input, and a refusal to overwrite the input.
+TEST(Cli, EncodeDecodeRoundTrip) {
+  test::TempDir dir;
+  const std::string one = (dir.path() / "one.sspc").string();
+  const std::string two = (dir.path() / "two.sspc").string();
+  ASSERT_EQ(sspc(dir, "--threads 1 encode " + bunny() + " " + one).exit_code, 0);
+  ASSERT_EQ(sspc(dir, "--threads 2 encode " + bunny() + " " + two).exit_code, 0);
+  EXPECT_EQ(slurp(one), slurp(two));
+  EXPECT_EQ(sspc(dir, "verify " + one).exit_code, 0);
+  const std::string decoded = (dir.path() / "decoded.ply").string();
+  ASSERT_EQ(sspc(dir, "decode " + one + " " + decoded).exit_code, 0);
+  auto cloud = read_point_cloud(decoded);
+  ASSERT_TRUE(cloud.ok());
+  EXPECT_NEAR(static_cast<double>(cloud->size()), 34834.0, 3483.0);
+  EXPECT_EQ(sspc(dir, "encode " + one + " " + one + " -f").exit_code, 1);
+  EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one).exit_code, 1);  // exists, no --force
+  EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one + " --level 10").exit_code, 2);
+}
+
 }  // namespace
 }  // namespace sspc

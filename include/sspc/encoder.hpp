@@ -1,0 +1,54 @@
+// Compressing a point cloud into an .sspc file (Hubo et al. 2007, §4; SPEC steps 2–8).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+
+#include "sspc/normals.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc {
+
+struct EncodeOptions {
+  int level = 5;  // 0 (most detail) .. 9 (smallest); one row of docs/FORMAT.md's level table
+  // Expert overrides of single fields of the level's row.
+  std::optional<int> patch_points;  // expected points per patch, 8..4096
+  std::optional<float> epsilon;     // descriptor L1 radius, > 0
+  std::optional<float> tau;         // MLS error threshold in point spacings, > 0
+  std::optional<int> position_bits; // code-word coordinate bits, 6..16
+  NormalOptions normals;            // how the input gets its normals (default: auto)
+  std::uint64_t seed = 1;
+  Progress* progress = nullptr;
+};
+
+struct EncodeStats {
+  std::uint64_t points = 0;
+  std::uint64_t patches = 0;
+  std::uint64_t codewords = 0;
+  double codebook_ratio = 0;  // patches / code words
+  std::uint64_t codeword_points = 0;
+  double spacing = 0;
+  double patch_radius = 0;
+  double coverage_radius = 0;
+  double max_coverage_distance = 0;  // largest point-to-centre distance (≤ coverage_radius)
+  std::uint64_t candidates_tested = 0;
+  std::uint64_t file_bytes = 0;
+  std::uint64_t codebook_bytes = 0;
+  std::uint64_t patch_bytes = 0;
+  double bits_per_point = 0;
+  double seconds_normals = 0;
+  double seconds_centres = 0;
+  double seconds_codebook = 0;
+  double seconds_writing = 0;
+};
+
+// Encodes `cloud` (normals are estimated when it has none, per options.normals) and writes
+// `output` atomically. Errors: kInvalidArgument for out-of-range options or a cloud of fewer
+// than 16 points; I/O errors from writing.
+StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
+                             const EncodeOptions& options = {});
+
+}  // namespace sspc

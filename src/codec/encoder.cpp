@@ -1,0 +1,94 @@
+// sspc::encode: normals, the model builder, the container writer.
+#include "sspc/encoder.hpp"
+
+#include <chrono>
+#include <string>
+
+#include "codec/container_writer.hpp"
+#include "codec/levels.hpp"
+#include "codec/model_builder.hpp"
+
+namespace sspc {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Status check_options(const EncodeOptions& o) {
+  if (o.level < codec::kMinLevel || o.level > codec::kMaxLevel) {
+    return invalid_argument("level must be 0..9, got " + std::to_string(o.level));
+  }
+  if (o.patch_points && (*o.patch_points < 8 || *o.patch_points > 4096)) {
+    return invalid_argument("patch points must be 8..4096, got " + std::to_string(*o.patch_points));
+  }
+  if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon < 1e3f)) return invalid_argument("epsilon must be positive");
+  if (o.tau && !(*o.tau > 0 && *o.tau < 1e3f)) return invalid_argument("tau must be positive");
+  if (o.position_bits && (*o.position_bits < 6 || *o.position_bits > 16)) {
+    return invalid_argument("position bits must be 6..16, got " + std::to_string(*o.position_bits));
+  }
+  return Status();
+}
+
+}  // namespace
+
+StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
+                             const EncodeOptions& options) {
+  SSPC_RETURN_IF_ERROR(check_options(options));
+  SSPC_RETURN_IF_ERROR(cloud.validate());
+  if (cloud.size() < 16) {
+    return invalid_argument("the cloud has " + std::to_string(cloud.size()) +
+                            " points; sspc encode needs at least 16");
+  }
+  if (cloud.size() >= 0xFFFFFFFFu) return resource_exhausted("sspc encode handles fewer than 2^32 points");
+  if (!(bounding_box_diagonal(cloud) > 0)) return invalid_argument("all points coincide");
+
+  EncodeStats stats;
+  stats.points = cloud.size();
+  auto start = std::chrono::steady_clock::now();
+  NormalOptions normal_options = options.normals;
+  normal_options.progress = options.progress;
+  SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
+  stats.seconds_normals = seconds_since(start);
+
+  codec::BuildOptions build;
+  build.level = codec::level_params(options.level);
+  if (options.patch_points) build.level.patch_points = *options.patch_points;
+  if (options.epsilon) build.level.epsilon = *options.epsilon;
+  if (options.tau) build.level.tau = *options.tau;
+  if (options.position_bits) build.level.position_bits = *options.position_bits;
+  build.seed = options.seed;
+  build.progress = options.progress;
+  codec::BuildStats build_stats;
+  const codec::EncodedModel model = codec::build_model(cloud, build, &build_stats);
+  stats.seconds_centres = build_stats.seconds_centres;
+  stats.seconds_codebook = build_stats.seconds_codebook;
+
+  start = std::chrono::steady_clock::now();
+  codec::QuantOptions quant;
+  quant.position_bits = build.level.position_bits;
+  quant.translation_step = static_cast<float>(build_stats.spacing) * build.level.translation_step;
+  progress_begin(options.progress, "writing", 1, "files");
+  SSPC_ASSIGN_OR_RETURN(const codec::ContainerStats written, codec::write_container(model, quant, output));
+  progress_advance(options.progress, 1);
+  progress_end(options.progress);
+  stats.seconds_writing = seconds_since(start);
+
+  stats.patches = model.patches.size();
+  stats.codewords = model.codebook.size();
+  stats.codebook_ratio = stats.codewords > 0 ? static_cast<double>(stats.patches) / static_cast<double>(stats.codewords) : 0.0;
+  stats.codeword_points = build_stats.codebook.codeword_points;
+  stats.spacing = build_stats.spacing;
+  stats.patch_radius = build_stats.patch_radius;
+  stats.coverage_radius = build_stats.coverage_radius;
+  stats.max_coverage_distance = build_stats.centres.max_distance;
+  stats.candidates_tested = build_stats.codebook.candidates_tested;
+  stats.file_bytes = written.file_bytes;
+  stats.codebook_bytes = written.codebook_bytes;
+  stats.patch_bytes = written.patch_bytes;
+  stats.bits_per_point = 8.0 * static_cast<double>(written.file_bytes) / static_cast<double>(stats.points);
+  return stats;
+}
+
+}  // namespace sspc
