@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job on the bundled sample (data/bunny.ply): install, build, then read the cloud,
-# estimate and orient normals, and evaluate the result against the original.
+# estimate and orient normals and evaluate them, compress it, verify and decode the file, and
+# evaluate the decoded cloud against the original (rendering comes with the renderer).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
@@ -11,3 +12,8 @@ set -x
 build/sspc info data/bunny.ply
 build/sspc normals data/bunny.ply out/bunny_normals.ply --normals estimate --force
 build/sspc eval data/bunny.ply out/bunny_normals.ply
+build/sspc encode data/bunny.ply out/bunny.sspc --force
+build/sspc verify out/bunny.sspc
+build/sspc info out/bunny.sspc
+build/sspc decode out/bunny.sspc out/bunny_decoded.ply --force
+build/sspc eval data/bunny.ply out/bunny_decoded.ply --compressed out/bunny.sspc
