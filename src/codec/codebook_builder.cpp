@@ -211,6 +211,12 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
 
   constexpr std::uint32_t kUnassigned = 0xFFFFFFFFu;
   std::vector<std::uint32_t> assigned(n, kUnassigned);
+  // A rejected candidate returns to the pool (paper §4.3), but with a wide ε the same patch
+  // would be aligned again by every later representative near it in descriptor space: the
+  // encoder turned quadratic on dragon_scans. After kMaxAttempts failed alignments a patch waits
+  // to become a code word itself.
+  constexpr std::uint8_t kMaxAttempts = 6;
+  std::vector<std::uint8_t> attempts(n, 0);
   model.patches.resize(n);
   std::size_t tested = 0, accepted = 0, done = 0;
   std::vector<L1Neighbor> near;
@@ -232,7 +238,9 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
     descriptor_tree.radius(std::span<const float>(frames.descriptors.data() + rep * dim, dim), o.epsilon, near);
     candidates.clear();
     for (const L1Neighbor& nb : near) {
-      if (assigned[nb.index] == kUnassigned) candidates.push_back(nb.index);
+      if (assigned[nb.index] != kUnassigned || attempts[nb.index] >= kMaxAttempts) continue;
+      candidates.push_back(nb.index);
+      ++attempts[nb.index];
     }
     if (!candidates.empty()) {
       const CodeWord& cw = model.codebook.back();
