@@ -9,18 +9,11 @@
 #include <string>
 
 #include "codec/quantize.hpp"
-#include "codec/span_reader.hpp"
+#include "core/byte_reader.hpp"
+#include "core/varint.hpp"
 
 namespace sspc::codec {
 namespace {
-
-void put_varint(std::string& out, std::uint64_t v) {
-  while (v >= 0x80) {
-    out.push_back(static_cast<char>((v & 0x7F) | 0x80));
-    v >>= 7;
-  }
-  out.push_back(static_cast<char>(v));
-}
 
 // LSB-first bit packing.
 class BitWriter {
@@ -73,7 +66,7 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
   std::string out;
   std::size_t total = 0;
   for (const CodeWord& c : codewords) {
-    put_varint(out, c.points.size());
+    append_varint(out, c.points.size());
     total += c.points.size();
   }
   const float step = position_step(header.patch_radius, header.position_bits);
@@ -121,7 +114,7 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
   std::string out;
   std::int64_t previous_codeword = 0;
   for (const PatchInstance& p : patches) {
-    put_varint(out, zigzag_encode(static_cast<std::int64_t>(p.codeword) - previous_codeword));
+    append_varint(out, zigzag_encode(static_cast<std::int64_t>(p.codeword) - previous_codeword));
     previous_codeword = p.codeword;
   }
   std::array<std::int64_t, 3> previous{0, 0, 0};
@@ -134,7 +127,7 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
           "the bounds' minimum; use a larger translation_step");
     }
     for (std::size_t a = 0; a < 3; ++a) {
-      put_varint(out, zigzag_encode(v[a] - previous[a]));
+      append_varint(out, zigzag_encode(v[a] - previous[a]));
       previous[a] = v[a];
     }
   }
@@ -149,7 +142,7 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
 
 Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& entry,
                              const ContainerHeader& header, DecodedCodewords& out) {
-  SpanReader reader(raw);
+  ByteReader reader(raw);
   const std::size_t per_point = bytes_per_codeword_point(header);
   // Every point needs per_point bytes, so the seek table's count is bounded by the payload.
   if (entry.point_count > raw.size() / per_point) {
@@ -164,7 +157,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
   for (std::uint32_t c = 0; c < entry.count; ++c) {
     std::uint64_t count = 0;
     const std::size_t at = reader.position();
-    if (!reader.varint(count)) return payload_error(at, "bad or truncated point count");
+    if (!reader.read_varint(count).ok()) return payload_error(at, "bad or truncated point count");
     sum += count;
     if (count > n || sum > n) {
       return payload_error(
@@ -178,9 +171,14 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
                                                 std::to_string(n));
   }
   std::span<const std::byte> pos_bytes, normal_bytes, color_bytes;
-  if (!reader.take(6 * n, pos_bytes) ||
-      (header.has_normals() && !reader.take(4 * n, normal_bytes)) ||
-      (header.has_colors() && !reader.take(3 * n, color_bytes))) {
+  const auto take = [&reader](std::size_t bytes, std::span<const std::byte>& taken) {
+    auto span = reader.read_bytes(bytes);
+    if (!span.ok()) return false;
+    taken = *span;
+    return true;
+  };
+  if (!take(6 * n, pos_bytes) || (header.has_normals() && !take(4 * n, normal_bytes)) ||
+      (header.has_colors() && !take(3 * n, color_bytes))) {
     return payload_error(reader.position(), "payload ends inside the point data");
   }
   if (!reader.at_end()) {
@@ -250,7 +248,7 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
   const std::size_t rotation_bits = 2 + 3 * static_cast<std::size_t>(header.rotation_bits);
   if (m > raw.size() / 4) return payload_error(0, "patch count cannot fit in the block");
   const std::size_t rotation_bytes = (m * rotation_bits + 7) / 8;
-  SpanReader reader(raw);
+  ByteReader reader(raw);
   out.first = entry.first;
   out.codeword.resize(m);
   out.rotation.resize(m);
@@ -259,7 +257,7 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
   for (std::size_t k = 0; k < m; ++k) {
     std::uint64_t z = 0;
     const std::size_t at = reader.position();
-    if (!reader.varint(z)) return payload_error(at, "bad or truncated code-word index");
+    if (!reader.read_varint(z).ok()) return payload_error(at, "bad or truncated code-word index");
     const std::int64_t delta = zigzag_decode(z);
     if (delta > std::int64_t{UINT32_MAX} || delta < -std::int64_t{UINT32_MAX}) {
       return payload_error(at, "code-word delta out of range");
@@ -278,7 +276,7 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
     for (std::size_t a = 0; a < 3; ++a) {
       std::uint64_t z = 0;
       const std::size_t at = reader.position();
-      if (!reader.varint(z)) return payload_error(at, "bad or truncated translation");
+      if (!reader.read_varint(z).ok()) return payload_error(at, "bad or truncated translation");
       const std::int64_t delta = zigzag_decode(z);
       if (delta > 2 * kMaxTranslationGrid || delta < -2 * kMaxTranslationGrid) {
         return payload_error(at, "translation delta out of range");
@@ -296,10 +294,11 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
                                " has its centre outside the block's box in the seek table");
     }
   }
-  std::span<const std::byte> rot;
-  if (!reader.take(rotation_bytes, rot)) {
+  const auto rotations = reader.read_bytes(rotation_bytes);
+  if (!rotations.ok()) {
     return payload_error(reader.position(), "payload ends inside the rotations");
   }
+  const std::span<const std::byte> rot = *rotations;
   if (!reader.at_end()) {
     return payload_error(reader.position(),
                          std::to_string(reader.remaining()) + " bytes after the rotations");

@@ -31,4 +31,22 @@ Status ByteReader::seek(std::size_t position) {
   return Status();
 }
 
+Status ByteReader::read_varint(std::uint64_t& out) {
+  const std::size_t start = offset();
+  std::uint64_t value = 0;
+  for (int i = 0; i < 10; ++i) {
+    if (at_end()) return overrun(1);
+    const auto byte = static_cast<std::uint8_t>(data_[pos_++]);
+    const std::uint64_t group = byte & 0x7Fu;
+    if (i == 9 && group > 1) break;  // bits past 2^64
+    value |= group << (7 * i);
+    if ((byte & 0x80u) == 0) {
+      if (i > 0 && group == 0) break;  // redundant trailing zero group
+      out = value;
+      return Status();
+    }
+  }
+  return corrupt("malformed varint at byte offset " + std::to_string(start));
+}
+
 }  // namespace sspc

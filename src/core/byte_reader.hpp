@@ -139,6 +139,10 @@ class ByteReader {
   // Moves to `position` within the span (not a file offset); at most size().
   Status seek(std::size_t position);
 
+  // An unsigned LEB128 varint (src/core/varint.hpp writes them): at most 10 bytes, nothing
+  // past 64 bits, no redundant trailing zero group. On failure the position is unspecified.
+  Status read_varint(std::uint64_t& out);
+
   // The kCorrupt status an overrun of `wanted` bytes at the current position produces; public
   // so that callers checking a block with can_read() report it the same way.
   Status overrun(std::size_t wanted) const;
