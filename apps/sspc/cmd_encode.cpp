@@ -25,6 +25,8 @@ struct EncodeCliOptions {
   int position_bits = 0;
   NormalMode normals = NormalMode::kAuto;
   std::string viewpoint;
+  bool store_normals = false;
+  bool full_spheres = false;
   bool force = false;
   bool json = false;
 };
@@ -51,6 +53,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (o.epsilon > 0) options.epsilon = o.epsilon;
   if (o.tau > 0) options.tau = o.tau;
   if (o.position_bits > 0) options.position_bits = o.position_bits;
+  options.store_normals = o.store_normals;
+  options.full_spheres = o.full_spheres;
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
@@ -70,6 +74,9 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
         .field("codewords", stats->codewords)
         .field("codebook_ratio", stats->codebook_ratio)
         .field("codeword_points", stats->codeword_points)
+        .field("untrimmed_codeword_points", stats->untrimmed_codeword_points)
+        .field("position_bits", stats->position_bits)
+        .field("position_step", stats->position_step)
         .field("spacing", stats->spacing)
         .field("patch_radius", stats->patch_radius)
         .field("coverage_radius", stats->coverage_radius)
@@ -115,8 +122,14 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->check(CLI::PositiveNumber);
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
       ->check(CLI::PositiveNumber);
-  app->add_option("--position-bits", o->position_bits, "Code-word coordinate bits (overrides the level)")
-      ->check(CLI::Range(6, 16));
+  app->add_option("--position-bits", o->position_bits,
+                  "Code-word grid: 2 patch radii in 2^bits steps (overrides the level's step)")
+      ->check(CLI::Range(4, 16));
+  app->add_flag("--store-normals", o->store_normals,
+                "Store the code words' normals too (positions only by default)");
+  app->add_flag("--full-spheres", o->full_spheres,
+                "Keep each code word's whole sphere (the paper's layout); by default points no "
+                "instance decodes are dropped");
   const std::map<std::string, NormalMode> modes{
       {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
   app->add_option("--normals", o->normals, "auto: the file's normals if any, else estimate; keep; estimate")

@@ -18,7 +18,15 @@ struct EncodeOptions {
   std::optional<int> patch_points;  // expected points per patch, 8..4096
   std::optional<float> epsilon;     // descriptor L1 radius, > 0
   std::optional<float> tau;         // MLS error threshold in point spacings, > 0
-  std::optional<int> position_bits; // code-word coordinate bits, 6..16
+  std::optional<int> position_bits; // code-word coordinate bits, 4..16 (instead of the level's step)
+  // Store the code words' normals (10-bit octahedral; about 12–16 more bits per code-word
+  // point after zstd). Off by default: the rate a point-cloud codec is compared by counts
+  // positions only, and decoders and the renderer can estimate normals from the points.
+  bool store_normals = false;
+  // Keep each code word's whole sphere of radius R, as the paper does. By default the writer
+  // drops the points no instance's region claims: the decoded model is the same, the code book
+  // about half the size, and only `decode --overlap` sees fewer points.
+  bool full_spheres = false;
   NormalOptions normals;            // how the input gets its normals (default: auto)
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
@@ -29,7 +37,10 @@ struct EncodeStats {
   std::uint64_t patches = 0;
   std::uint64_t codewords = 0;
   double codebook_ratio = 0;  // patches / code words
-  std::uint64_t codeword_points = 0;
+  std::uint64_t codeword_points = 0;          // stored (after trimming)
+  std::uint64_t untrimmed_codeword_points = 0;  // Σ of the representatives' sphere sizes
+  int position_bits = 0;      // the code words' grid: 2·patch_radius / 2^position_bits
+  double position_step = 0;
   double spacing = 0;
   double patch_radius = 0;
   double coverage_radius = 0;

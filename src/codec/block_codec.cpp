@@ -61,6 +61,68 @@ std::size_t bytes_per_codeword_point(const ContainerHeader& header) {
   return std::size_t{6} + (header.has_normals() ? 4u : 0u) + (header.has_colors() ? 3u : 0u);
 }
 
+namespace {
+
+// Puts 16-bit values as a plane of low bytes, then a plane of high bytes.
+void put_planes(std::string& out, const std::vector<std::uint32_t>& v) {
+  for (std::uint32_t x : v) out.push_back(static_cast<char>(x & 0xFF));
+  for (std::uint32_t x : v) out.push_back(static_cast<char>((x >> 8) & 0xFF));
+}
+
+// The order version 2 stores a code word's points in: rows of the tangent plane (y, then x,
+// then height z on the code word's grid), so that consecutive points are neighbours.
+std::vector<std::uint32_t> raster_order(const std::vector<std::array<std::uint32_t, 3>>& v) {
+  std::vector<std::uint32_t> order(v.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&v](std::uint32_t a, std::uint32_t b) {
+    const auto& p = v[a];
+    const auto& q = v[b];
+    if (p[1] != q[1]) return p[1] < q[1];
+    if (p[0] != q[0]) return p[0] < q[0];
+    if (p[2] != q[2]) return p[2] < q[2];
+    return a < b;
+  });
+  return order;
+}
+
+// The height residual (v − prediction) on the ring of 2^bits values, as a signed value in
+// [−2^(bits−1), 2^(bits−1)) and zig-zagged into [0, 2^bits): small either way, never wider than
+// the grid, and every stored value below 2^bits decodes to a point on the grid.
+std::uint32_t zigzag_residual(std::uint32_t v, std::uint32_t prediction, int bits) {
+  const std::uint32_t size = 1u << bits;
+  const std::uint32_t r = (v - prediction) & (size - 1);
+  return r < size / 2 ? 2 * r : 2 * (size - r) - 1;
+}
+
+std::uint32_t apply_residual(std::uint32_t zigzag, std::uint32_t prediction, int bits) {
+  const std::uint32_t size = 1u << bits;
+  const std::uint32_t r = (zigzag & 1u) ? size - (zigzag + 1) / 2 : zigzag / 2;
+  return (prediction + r) & (size - 1);
+}
+
+// Version 2's height prediction: the previous point's height within a row; the height of the
+// previous row's point nearest in x (the first on a tie) at the start of a row; the grid's
+// middle (height 0) for a code word's first point.
+std::uint32_t predict_height(std::span<const std::array<std::uint32_t, 3>> row_above,
+                             const std::array<std::uint32_t, 3>& previous, bool same_row,
+                             std::uint32_t x, int bits) {
+  if (same_row) return previous[2];
+  if (row_above.empty()) return 1u << (bits - 1);
+  // The previous row's point nearest in x (the first on a tie): rows are sorted by x.
+  std::uint32_t best = row_above[0][2];
+  std::uint32_t best_dx = x > row_above[0][0] ? x - row_above[0][0] : row_above[0][0] - x;
+  for (const auto& p : row_above) {
+    const std::uint32_t dx = x > p[0] ? x - p[0] : p[0] - x;
+    if (dx < best_dx) {
+      best_dx = dx;
+      best = p[2];
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 std::string encode_codeword_block(std::span<const CodeWord> codewords,
                                   const ContainerHeader& header) {
   std::string out;
@@ -70,42 +132,61 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
     total += c.points.size();
   }
   const float step = position_step(header.patch_radius, header.position_bits);
-  std::vector<std::uint32_t> values;
-  values.reserve(3 * total);
+  const int bits = header.position_bits;
+  const std::uint32_t mask = (1u << bits) - 1;
+  std::vector<std::uint32_t> ys, xs, zs, normals;
+  ys.reserve(total);
+  xs.reserve(total);
+  zs.reserve(total);
+  std::string colors[3];
+  std::vector<std::array<std::uint32_t, 3>> grid, sorted;
   for (const CodeWord& c : codewords) {
+    grid.clear();
     for (const Vec3f& p : c.points) {
-      for (int a = 0; a < 3; ++a)
-        values.push_back(quantize_coordinate(p[a], step, header.position_bits));
+      grid.push_back({quantize_coordinate(p.x(), step, bits), quantize_coordinate(p.y(), step, bits),
+                      quantize_coordinate(p.z(), step, bits)});
     }
-  }
-  auto put_planes = [&out](const std::vector<std::uint32_t>& v) {
-    for (std::uint32_t x : v) out.push_back(static_cast<char>(x & 0xFF));
-    for (std::uint32_t x : v) out.push_back(static_cast<char>((x >> 8) & 0xFF));
-  };
-  put_planes(values);
-  if (header.has_normals()) {
-    values.clear();
-    for (const CodeWord& c : codewords) {
-      for (std::size_t i = 0; i < c.points.size(); ++i) {
+    const std::vector<std::uint32_t> order = raster_order(grid);
+    sorted.clear();
+    for (std::uint32_t i : order) sorted.push_back(grid[i]);
+    std::size_t row_start = 0, previous_row_start = 0;
+    for (std::size_t i = 0; i < sorted.size(); ++i) {
+      const auto& v = sorted[i];
+      const bool first = i == 0;
+      const std::uint32_t dy = first ? v[1] : v[1] - sorted[i - 1][1];
+      const bool same_row = !first && dy == 0;
+      if (!first && !same_row) {
+        previous_row_start = row_start;
+        row_start = i;
+      }
+      const std::span<const std::array<std::uint32_t, 3>> above =
+          first || row_start == 0 ? std::span<const std::array<std::uint32_t, 3>>()
+                                  : std::span(sorted).subspan(previous_row_start, row_start - previous_row_start);
+      ys.push_back(dy);
+      xs.push_back(same_row ? v[0] - sorted[i - 1][0] : v[0]);
+      const std::uint32_t pred = predict_height(above, first ? v : sorted[i - 1], same_row, v[0], bits);
+      zs.push_back(zigzag_residual(v[2], pred, bits) & mask);
+    }
+    for (std::uint32_t i : order) {
+      if (header.has_normals()) {
         const Vec3f n = i < c.normals.size() ? c.normals[i] : Vec3f::UnitZ();
         const auto uv = encode_normal(n, header.normal_bits);
-        values.push_back(uv[0]);
-        values.push_back(uv[1]);
+        normals.push_back(uv[0]);
+        normals.push_back(uv[1]);
       }
-    }
-    put_planes(values);
-  }
-  if (header.has_colors()) {
-    for (int channel = 0; channel < 3; ++channel) {
-      for (const CodeWord& c : codewords) {
-        for (std::size_t i = 0; i < c.points.size(); ++i) {
-          const Rgb8 rgb = i < c.colors.size() ? c.colors[i] : Rgb8{};
-          const std::uint8_t v = channel == 0 ? rgb.r : channel == 1 ? rgb.g : rgb.b;
-          out.push_back(static_cast<char>(v));
-        }
+      if (header.has_colors()) {
+        const Rgb8 rgb = i < c.colors.size() ? c.colors[i] : Rgb8{};
+        colors[0].push_back(static_cast<char>(rgb.r));
+        colors[1].push_back(static_cast<char>(rgb.g));
+        colors[2].push_back(static_cast<char>(rgb.b));
       }
     }
   }
+  put_planes(out, ys);
+  put_planes(out, xs);
+  put_planes(out, zs);
+  if (header.has_normals()) put_planes(out, normals);
+  if (header.has_colors()) out += colors[0] + colors[1] + colors[2];
   return out;
 }
 
@@ -191,17 +272,53 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
   std::uint32_t overflow = 0;
   out.points.resize(n);
   out.norm2.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  const auto set_point = [&](std::size_t i, const std::array<std::uint32_t, 3>& v) {
     float xyz[3];
-    for (std::size_t a = 0; a < 3; ++a) {
-      const std::size_t j = 3 * i + a;
-      const std::uint32_t v =
-          byte_at(pos_bytes, j) | (static_cast<std::uint32_t>(byte_at(pos_bytes, 3 * n + j)) << 8);
-      overflow |= v >> pbits;
-      xyz[a] = dequantize_coordinate(v, step, pbits);
-    }
+    for (std::size_t a = 0; a < 3; ++a) xyz[a] = dequantize_coordinate(v[a], step, pbits);
     out.points[i] = Vec3f(xyz[0], xyz[1], xyz[2]);
     out.norm2[i] = xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2];
+  };
+  if (header.version == 1) {
+    for (std::size_t i = 0; i < n; ++i) {
+      std::array<std::uint32_t, 3> v{};
+      for (std::size_t a = 0; a < 3; ++a) {
+        const std::size_t j = 3 * i + a;
+        v[a] = byte_at(pos_bytes, j) | (static_cast<std::uint32_t>(byte_at(pos_bytes, 3 * n + j)) << 8);
+        overflow |= v[a] >> pbits;
+      }
+      set_point(i, v);
+    }
+  } else {
+    const auto plane = [&](std::size_t stream, std::size_t i) {
+      const std::size_t base = 2 * n * stream;
+      return byte_at(pos_bytes, base + i) | (static_cast<std::uint32_t>(byte_at(pos_bytes, base + n + i)) << 8);
+    };
+    std::vector<std::array<std::uint32_t, 3>> grid(n);
+    for (std::uint32_t c = 0; c < entry.count; ++c) {
+      std::size_t row_start = out.offsets[c], previous_row_start = row_start;
+      for (std::size_t i = out.offsets[c]; i < out.offsets[c + 1]; ++i) {
+        const std::uint32_t dy = plane(0, i), x = plane(1, i), z = plane(2, i);
+        overflow |= (dy | x | z) >> pbits;
+        const bool first = i == out.offsets[c];
+        const bool same_row = !first && dy == 0;
+        if (!first && !same_row) {
+          previous_row_start = row_start;
+          row_start = i;
+        }
+        std::array<std::uint32_t, 3>& v = grid[i];
+        v[1] = first ? dy : grid[i - 1][1] + dy;
+        v[0] = same_row ? grid[i - 1][0] + x : x;
+        overflow |= (v[0] | v[1]) >> pbits;
+        const std::span<const std::array<std::uint32_t, 3>> above =
+            first || row_start == out.offsets[c]
+                ? std::span<const std::array<std::uint32_t, 3>>()
+                : std::span<const std::array<std::uint32_t, 3>>(grid).subspan(previous_row_start, row_start - previous_row_start);
+        const std::uint32_t pred = predict_height(above, first ? v : grid[i - 1], same_row, v[0], pbits);
+        v[2] = apply_residual(z & ((1u << pbits) - 1), pred, pbits);
+        if (overflow != 0) break;
+        set_point(i, v);
+      }
+    }
   }
   if (overflow != 0) return payload_error(0, "a position value exceeds position_bits");
   if (header.has_normals()) {

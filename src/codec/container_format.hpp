@@ -1,4 +1,4 @@
-// The constants and fixed layouts of the .sspc container, version 1 (docs/FORMAT.md is the
+// The constants and fixed layouts of the .sspc container, versions 1 and 2 (docs/FORMAT.md is the
 // specification; this file mirrors its tables, and a change here is a change of format).
 #pragma once
 
@@ -13,7 +13,10 @@ namespace sspc::codec {
 // "\x8A S P C \r \n \x1A \n": high bit set (7-bit transfers), CR LF and LF (line-ending
 // conversion either way), Ctrl-Z (stops an MS-DOS `type`). See FORMAT.md.
 inline constexpr std::array<std::uint8_t, 8> kMagic = {0x8A, 'S', 'P', 'C', 0x0D, 0x0A, 0x1A, 0x0A};
-inline constexpr std::uint16_t kFormatVersion = 1;
+// The version the writer writes, and the oldest one readers still decode. Version 2 changed only
+// the code-book blocks' position layout (FORMAT.md, "Code-book blocks").
+inline constexpr std::uint16_t kFormatVersion = 2;
+inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;
 inline constexpr std::uint16_t kFlagColors = 1u << 1;

@@ -64,9 +64,10 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
   if (bytes.size() < 10) return fail(bytes.size(), "truncated header (no version)");
   const std::byte* p = bytes.data();
   const std::uint16_t version = le16(p + 8);
-  if (version != kFormatVersion) {
+  if (version < kOldestFormatVersion || version > kFormatVersion) {
     return unsupported(name + ": .sspc format version " + std::to_string(version) +
-                       " (this sspc reads version " + std::to_string(kFormatVersion) + ")");
+                       " (this sspc reads versions " + std::to_string(kOldestFormatVersion) + " to " +
+                       std::to_string(kFormatVersion) + ")");
   }
   if (bytes.size() < kHeaderSize) {
     return fail(bytes.size(), "truncated header: " + std::to_string(bytes.size()) + " of " +

@@ -14,6 +14,7 @@
 
 #include "codec/block_codec.hpp"
 #include "codec/checksum.hpp"
+#include "codec/codeword_trim.hpp"
 #include "codec/container_format.hpp"
 #include "core/atomic_file.hpp"
 #include "core/parallel.hpp"
@@ -183,31 +184,38 @@ std::string encode_header(const ContainerHeader& h) {
 
 }  // namespace
 
-StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOptions& options,
+StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOptions& options,
                                        ContainerStats* stats) {
-  SSPC_RETURN_IF_ERROR(validate(model, options));
+  SSPC_RETURN_IF_ERROR(validate(source, options));
 
   ContainerHeader h;
-  h.flags = static_cast<std::uint16_t>((model.has_normals ? kFlagNormals : 0) |
-                                       (model.has_colors ? kFlagColors : 0));
-  h.patch_radius = model.patch_radius;
-  h.coverage_radius = model.coverage_radius;
-  h.spacing = model.spacing;
-  h.source_points = model.source_points;
-  if (!model.bounds.isEmpty()) {
-    h.bounds_min = model.bounds.min();
-    h.bounds_max = model.bounds.max();
+  h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
+                                       (source.has_colors ? kFlagColors : 0));
+  h.patch_radius = source.patch_radius;
+  h.coverage_radius = source.coverage_radius;
+  h.spacing = source.spacing;
+  h.source_points = source.source_points;
+  if (!source.bounds.isEmpty()) {
+    h.bounds_min = source.bounds.min();
+    h.bounds_max = source.bounds.max();
   }
   h.translation_step = options.translation_step > 0 ? options.translation_step
-                       : model.spacing > 0          ? model.spacing / 64.0f
-                                                    : model.patch_radius / 256.0f;
+                       : source.spacing > 0          ? source.spacing / 64.0f
+                                                    : source.patch_radius / 256.0f;
   h.position_bits = options.position_bits;
   h.normal_bits = options.normal_bits;
   h.rotation_bits = options.rotation_bits;
-  h.codeword_count = static_cast<std::uint32_t>(model.codebook.size());
-  h.patch_count = static_cast<std::uint32_t>(model.patches.size());
+  h.codeword_count = static_cast<std::uint32_t>(source.codebook.size());
+  h.patch_count = static_cast<std::uint32_t>(source.patches.size());
   h.codewords_per_block = options.codewords_per_block;
   h.patches_per_block = options.patches_per_block;
+  EncodedModel trimmed;
+  if (options.trim_unclaimed) {
+    TrimStats trim;
+    trimmed = trim_unclaimed_points(source, h, &trim);
+    if (stats != nullptr) stats->untrimmed_codeword_points = trim.points_before;
+  }
+  const EncodedModel& model = options.trim_unclaimed ? trimmed : source;
   for (const CodeWord& w : model.codebook) h.codeword_point_count += w.points.size();
 
   // Code-book blocks.
@@ -312,6 +320,7 @@ StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOpt
 
   if (stats != nullptr) {
     stats->file_bytes = out.size();
+    stats->codeword_points = h.codeword_point_count;
     stats->header_bytes = kHeaderSize;
     stats->codebook_bytes = section[0].size();
     stats->codebook_seek_bytes = section[1].size();

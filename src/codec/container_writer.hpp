@@ -25,6 +25,9 @@ struct QuantOptions {
   std::uint32_t patches_per_block = 64;   // bench/decode_bench: see FORMAT.md
   std::uint32_t codewords_per_block = 4;
   int zstd_level = 19;
+  // Drop the code-word points no instance's region claims (codec/codeword_trim.hpp): the
+  // default decode is unchanged, the overlap decode no longer sees whole spheres.
+  bool trim_unclaimed = false;
 };
 
 // Bytes per part of the written file.
@@ -39,6 +42,8 @@ struct ContainerStats {
   std::uint64_t patch_raw_bytes = 0;
   std::uint32_t codebook_blocks = 0;
   std::uint32_t patch_blocks = 0;
+  std::uint64_t codeword_points = 0;            // stored
+  std::uint64_t untrimmed_codeword_points = 0;  // before trim_unclaimed (0 when off)
 };
 
 // The container's bytes. Fails with kInvalidArgument for a model that breaks its own invariants

@@ -7,6 +7,7 @@
 #include "codec/container_writer.hpp"
 #include "codec/levels.hpp"
 #include "codec/model_builder.hpp"
+#include "codec/quantize.hpp"
 
 namespace sspc {
 
@@ -25,8 +26,8 @@ Status check_options(const EncodeOptions& o) {
   }
   if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon < 1e3f)) return invalid_argument("epsilon must be positive");
   if (o.tau && !(*o.tau > 0 && *o.tau < 1e3f)) return invalid_argument("tau must be positive");
-  if (o.position_bits && (*o.position_bits < 6 || *o.position_bits > 16)) {
-    return invalid_argument("position bits must be 6..16, got " + std::to_string(*o.position_bits));
+  if (o.position_bits && (*o.position_bits < 4 || *o.position_bits > 16)) {
+    return invalid_argument("position bits must be 4..16, got " + std::to_string(*o.position_bits));
   }
   return Status();
 }
@@ -57,17 +58,21 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   if (options.patch_points) build.level.patch_points = *options.patch_points;
   if (options.epsilon) build.level.epsilon = *options.epsilon;
   if (options.tau) build.level.tau = *options.tau;
-  if (options.position_bits) build.level.position_bits = *options.position_bits;
   build.seed = options.seed;
   build.progress = options.progress;
   codec::BuildStats build_stats;
-  const codec::EncodedModel model = codec::build_model(cloud, build, &build_stats);
+  codec::EncodedModel model = codec::build_model(cloud, build, &build_stats);
+  model.has_normals = model.has_normals && options.store_normals;
   stats.seconds_centres = build_stats.seconds_centres;
   stats.seconds_codebook = build_stats.seconds_codebook;
 
   start = std::chrono::steady_clock::now();
   codec::QuantOptions quant;
-  quant.position_bits = build.level.position_bits;
+  quant.position_bits = options.position_bits
+                            ? *options.position_bits
+                            : codec::position_bits_for_step(build_stats.patch_radius,
+                                                            static_cast<double>(build.level.position_step) * build_stats.spacing);
+  quant.trim_unclaimed = !options.full_spheres;
   quant.translation_step = static_cast<float>(build_stats.spacing) * build.level.translation_step;
   progress_begin(options.progress, "writing", 1, "files");
   SSPC_ASSIGN_OR_RETURN(const codec::ContainerStats written, codec::write_container(model, quant, output));
@@ -78,7 +83,10 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.patches = model.patches.size();
   stats.codewords = model.codebook.size();
   stats.codebook_ratio = stats.codewords > 0 ? static_cast<double>(stats.patches) / static_cast<double>(stats.codewords) : 0.0;
-  stats.codeword_points = build_stats.codebook.codeword_points;
+  stats.untrimmed_codeword_points = build_stats.codebook.codeword_points;
+  stats.codeword_points = options.full_spheres ? stats.untrimmed_codeword_points : written.codeword_points;
+  stats.position_bits = quant.position_bits;
+  stats.position_step = codec::position_step(static_cast<float>(build_stats.patch_radius), quant.position_bits);
   stats.spacing = build_stats.spacing;
   stats.patch_radius = build_stats.patch_radius;
   stats.coverage_radius = build_stats.coverage_radius;

@@ -11,7 +11,8 @@ struct LevelParams {
   int patch_points = 0;        // expected points in one patch sphere
   float epsilon = 0;           // L1 radius in descriptor space (match distance)
   float tau = 0;               // MLS RMS error threshold, in units of the point spacing
-  int position_bits = 0;       // code-word coordinates, per axis, over ±patch radius
+  float position_step = 0;     // code-word coordinates' grid, in point spacings (an upper
+                               // bound: the grid spans ±patch radius in 2^bits steps)
   float translation_step = 0;  // patch translations' grid, in units of the point spacing
 };
 

@@ -3,6 +3,8 @@
 // wrong but well-formed geometry, never to NaN.
 #include "codec/quantize.hpp"
 
+#include "codec/container_format.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -25,6 +27,12 @@ float sign_not_zero(float x) {
 
 float position_step(float patch_radius, int bits) {
   return 2.0f * patch_radius / static_cast<float>(1u << bits);
+}
+
+int position_bits_for_step(double patch_radius, double step) {
+  if (!(step > 0) || !(patch_radius > 0)) return kMaxPositionBits;
+  const double bits = std::round(std::log2(2.0 * patch_radius / step));
+  return static_cast<int>(std::clamp(bits, double{kMinPositionBits}, double{kMaxPositionBits}));
 }
 
 std::uint32_t quantize_coordinate(float x, float step, int bits) {

@@ -6,11 +6,6 @@
 namespace sspc::codec {
 namespace {
 
-struct FrameNeighbour {
-  float x, y, z, ee;  // e_j and |e_j|²
-  std::uint32_t index;
-};
-
 // R q + c, spelled out so that its rounding is the same in every caller.
 Vec3f transform_point(const Eigen::Matrix3f& r, const Vec3f& q, const Vec3f& c) {
   return {r(0, 0) * q.x() + r(0, 1) * q.y() + r(0, 2) * q.z() + c.x(),
@@ -25,50 +20,53 @@ Vec3f rotate(const Eigen::Matrix3f& r, const Vec3f& v) {
 
 }  // namespace
 
+void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
+                       std::span<const Neighbour> neighbours) {
+  k_ = k;
+  frame_.clear();
+  for (const Neighbour& n : neighbours) {
+    const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
+                dz = n.centre.z() - centre.z();
+    // Rᵀ d: column a of R dotted with d.
+    FrameNeighbour f;
+    f.x = rotation(0, 0) * dx + rotation(1, 0) * dy + rotation(2, 0) * dz;
+    f.y = rotation(0, 1) * dx + rotation(1, 1) * dy + rotation(2, 1) * dz;
+    f.z = rotation(0, 2) * dx + rotation(1, 2) * dy + rotation(2, 2) * dz;
+    f.ee = f.x * f.x + f.y * f.y + f.z * f.z;
+    f.index = n.index;
+    frame_.push_back(f);
+  }
+  // Nearest first: most rejections happen on the first tests, and claims() can stop at the
+  // first neighbour too far away to matter. The order does not change which points are kept.
+  std::sort(frame_.begin(), frame_.end(), [](const FrameNeighbour& a, const FrameNeighbour& b) {
+    return a.ee < b.ee || (a.ee == b.ee && a.index < b.index);
+  });
+}
+
+bool RegionTest::claims(const Vec3f& q, float norm2) const {
+  // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away and
+  // cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop stops
+  // there. Skipping them never changes the outcome of the rule.
+  const float reach = 4.001f * norm2;
+  for (const FrameNeighbour& f : frame_) {
+    if (f.ee > reach) break;
+    const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
+    if (s > 0.0f || (s == 0.0f && k_ < f.index)) continue;
+    return false;
+  }
+  return true;
+}
+
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
                 const CodewordView& cw, std::span<const Neighbour> neighbours, bool overlap,
                 const Box3f* clip, PointCloud& out) {
-  thread_local std::vector<FrameNeighbour> frame;
-  frame.clear();
-  if (!overlap) {
-    for (const Neighbour& n : neighbours) {
-      const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
-                  dz = n.centre.z() - centre.z();
-      // Rᵀ d: column a of R dotted with d.
-      FrameNeighbour f;
-      f.x = rotation(0, 0) * dx + rotation(1, 0) * dy + rotation(2, 0) * dz;
-      f.y = rotation(0, 1) * dx + rotation(1, 1) * dy + rotation(2, 1) * dz;
-      f.z = rotation(0, 2) * dx + rotation(1, 2) * dy + rotation(2, 2) * dz;
-      f.ee = f.x * f.x + f.y * f.y + f.z * f.z;
-      f.index = n.index;
-      frame.push_back(f);
-    }
-    // Nearest first: most rejections happen on the first tests, and the loop below can stop at
-    // the first neighbour too far away to matter. The order does not change which points are
-    // kept.
-    std::sort(frame.begin(), frame.end(), [](const FrameNeighbour& a, const FrameNeighbour& b) {
-      return a.ee < b.ee || (a.ee == b.ee && a.index < b.index);
-    });
-  }
+  thread_local RegionTest region;
+  if (!overlap) region.reset(k, rotation, centre, neighbours);
   const bool normals = cw.normals != nullptr;
   const bool colors = cw.colors != nullptr;
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
-    if (!overlap) {
-      // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away
-      // and cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop
-      // stops there. Skipping them never changes the outcome of the rule.
-      const float reach = 4.001f * cw.norm2[i];
-      bool keep = true;
-      for (const FrameNeighbour& f : frame) {
-        if (f.ee > reach) break;
-        const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
-        if (s > 0.0f || (s == 0.0f && k < f.index)) continue;
-        keep = false;
-        break;
-      }
-      if (!keep) continue;
-    }
+    if (!overlap && !region.claims(q, cw.norm2[i])) continue;
     const Vec3f p = transform_point(rotation, q, centre);
     if (clip != nullptr && !clip->contains(p)) continue;
     out.positions.push_back(p);

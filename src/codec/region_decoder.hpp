@@ -42,6 +42,25 @@ struct CodewordView {
   std::size_t size = 0;
 };
 
+// Patch k's region in its code word's frame: which code-word points k keeps. Reusable: reset()
+// keeps the storage.
+class RegionTest {
+ public:
+  // `neighbours` must be exactly N_k (any order).
+  void reset(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rotation, const Vec3f& centre,
+             std::span<const Neighbour> neighbours);
+  // Whether k keeps code-word point q (with norm2 = |q|² as the decoder computes it).
+  bool claims(const Vec3f& q, float norm2) const;
+
+ private:
+  struct FrameNeighbour {
+    float x, y, z, ee;  // e_j and |e_j|²
+    std::uint32_t index;
+  };
+  std::uint32_t k_ = 0;
+  std::vector<FrameNeighbour> frame_;
+};
+
 // Appends patch k's points to `out`: with `overlap` all of them, otherwise those of its region
 // against `neighbours` (exactly N_k, any order). `clip`, when not null, drops points outside it
 // (inclusive bounds). `out` must have normals/colours arrays in step with its positions when

@@ -184,6 +184,33 @@ TEST(DecoderTest, DecodeAllIsDeterministicAcrossBlockSizes) {
   expect_same(a.all, b.all, "block sizes");
 }
 
+TEST(DecoderTest, TrimmingUnclaimedPointsKeepsTheDecodedModel) {
+  // The writer may drop the code-word points no instance claims: the default decode must not
+  // change by a single bit, per patch as well as whole, while the code book shrinks.
+  Fixture full = make_fixture(default_shape(), small_blocks());
+  QuantOptions trim = small_blocks();
+  trim.trim_unclaimed = true;
+  ContainerStats stats;
+  auto bytes = encode_container(full.model, trim, &stats);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+  auto trimmed = CompressedModel::from_bytes(std::move(bytes).value());
+  ASSERT_TRUE(trimmed.ok()) << trimmed.status().to_string();
+  ASSERT_TRUE(trimmed->verify().ok());
+  // Six code words shared by 200 instances: most of each sphere is some instance's cell.
+  EXPECT_LT(stats.codeword_points, stats.untrimmed_codeword_points);
+  auto all = trimmed->decode_all();
+  ASSERT_TRUE(all.ok());
+  expect_same(*all, full.all, "trimmed whole model");
+  for (std::size_t k = 0; k < trimmed->patch_count(); ++k) {
+    auto p = trimmed->decode_patch(k);
+    ASSERT_TRUE(p.ok());
+    expect_same(*p, slice(full.all, full.offsets[k], full.offsets[k + 1]), "trimmed patch");
+  }
+  std::uint64_t stored = 0;
+  for (std::size_t c = 0; c < trimmed->codeword_count(); ++c) stored += trimmed->codeword(c)->points.size();
+  EXPECT_EQ(stored, stats.codeword_points);
+}
+
 TEST(DecoderTest, ConcurrentQueriesAgree) {
   Fixture f = make_fixture(default_shape(), small_blocks());
   std::vector<std::thread> threads;
