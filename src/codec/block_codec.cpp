@@ -198,7 +198,9 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
     append_varint(out, zigzag_encode(static_cast<std::int64_t>(p.codeword) - previous_codeword));
     previous_codeword = p.codeword;
   }
+  // Version 2: per axis, the zig-zagged deltas as four byte planes (least significant first).
   std::array<std::int64_t, 3> previous{0, 0, 0};
+  std::array<std::vector<std::uint32_t>, 3> deltas;
   for (const PatchInstance& p : patches) {
     std::array<std::int32_t, 3> v{};
     if (!quantize_translation(p.world_from_codeword.translation, header.bounds_min,
@@ -208,8 +210,13 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
           "the bounds' minimum; use a larger translation_step");
     }
     for (std::size_t a = 0; a < 3; ++a) {
-      append_varint(out, zigzag_encode(v[a] - previous[a]));
+      deltas[a].push_back(static_cast<std::uint32_t>(zigzag_encode(v[a] - previous[a])));
       previous[a] = v[a];
+    }
+  }
+  for (const auto& axis : deltas) {
+    for (int plane = 0; plane < 4; ++plane) {
+      for (std::uint32_t d : axis) out.push_back(static_cast<char>((d >> (8 * plane)) & 0xFF));
     }
   }
   BitWriter bits(out);
@@ -388,12 +395,26 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
     out.codeword[k] = static_cast<std::uint32_t>(codeword);
   }
   std::array<std::int64_t, 3> v{0, 0, 0};
+  // Version 1: 3 varints per patch; version 2: per axis, four byte planes of m values.
+  std::span<const std::byte> planes;
+  if (header.version >= 2) {
+    const std::size_t at = reader.position();
+    auto bytes = reader.read_bytes(12 * m);
+    if (!bytes.ok()) return payload_error(at, "payload ends inside the translations");
+    planes = *bytes;
+  }
   for (std::size_t k = 0; k < m; ++k) {
     std::array<std::int32_t, 3> grid{};
     for (std::size_t a = 0; a < 3; ++a) {
       std::uint64_t z = 0;
       const std::size_t at = reader.position();
-      if (!reader.read_varint(z).ok()) return payload_error(at, "bad or truncated translation");
+      if (header.version >= 2) {
+        for (std::size_t plane = 0; plane < 4; ++plane) {
+          z |= std::uint64_t{byte_at(planes, (4 * a + plane) * m + k)} << (8 * plane);
+        }
+      } else if (!reader.read_varint(z).ok()) {
+        return payload_error(at, "bad or truncated translation");
+      }
       const std::int64_t delta = zigzag_decode(z);
       if (delta > 2 * kMaxTranslationGrid || delta < -2 * kMaxTranslationGrid) {
         return payload_error(at, "translation delta out of range");

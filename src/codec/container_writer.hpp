@@ -23,7 +23,7 @@ struct QuantOptions {
   int rotation_bits = 13;      // per smallest-three component: error < the position step
   float translation_step = 0;  // 0: spacing / 64 (patch_radius / 256 when spacing is 0)
   std::uint32_t patches_per_block = 64;   // bench/decode_bench: see FORMAT.md
-  std::uint32_t codewords_per_block = 4;
+  std::uint32_t codewords_per_block = 32;
   int zstd_level = 19;
   // Drop the code-word points no instance's region claims (codec/codeword_trim.hpp): the
   // default decode is unchanged, the overlap decode no longer sees whole spheres.

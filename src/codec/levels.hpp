@@ -13,7 +13,6 @@ struct LevelParams {
   float tau = 0;               // MLS RMS error threshold, in units of the point spacing
   float position_step = 0;     // code-word coordinates' grid, in point spacings (an upper
                                // bound: the grid spans ±patch radius in 2^bits steps)
-  float translation_step = 0;  // patch translations' grid, in units of the point spacing
 };
 
 inline constexpr int kMinLevel = 0;

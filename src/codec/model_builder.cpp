@@ -18,6 +18,22 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+void number_codewords_by_first_use(EncodedModel& model) {
+  constexpr std::uint32_t kUnused = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> new_index(model.codebook.size(), kUnused);
+  std::vector<CodeWord> codebook;
+  codebook.reserve(model.codebook.size());
+  for (PatchInstance& p : model.patches) {
+    std::uint32_t& to = new_index[p.codeword];
+    if (to == kUnused) {
+      to = static_cast<std::uint32_t>(codebook.size());
+      codebook.push_back(std::move(model.codebook[p.codeword]));
+    }
+    p.codeword = to;
+  }
+  model.codebook = std::move(codebook);  // a code word no patch uses is dropped
+}
+
 float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points) {
   // First guess: a disc of area patch_points · spacing².
   double radius = spacing * std::sqrt(static_cast<double>(patch_points) / std::numbers::pi);
@@ -63,6 +79,7 @@ EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, B
   cb.progress = options.progress;
   CodebookStats codebook_stats;
   EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);
+  number_codewords_by_first_use(model);
   if (stats != nullptr) {
     stats->spacing = spacing;
     stats->patch_radius = patch_radius;

@@ -38,6 +38,13 @@ struct BuildStats {
 // `cloud` must have unit normals and at least 2 distinct points.
 EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);
 
+// Renumbers the code words in the order patches (in file order, which is spatial) first use
+// them. The greedy builder numbers them by curvature, so neighbouring patches' indices were far
+// apart; in first-use order most patches of a sparse code book refer to the next new code word,
+// and a patch block's index deltas cost zstd almost nothing. Code-book blocks then also follow
+// the patches' spatial order, so a region decode touches fewer of them.
+void number_codewords_by_first_use(EncodedModel& model);
+
 // The radius whose sphere holds `patch_points` points on average, measured on a deterministic
 // sample of the cloud (the nominal spacing alone misjudges the area per point on noisy or
 // layered scans).
