@@ -5,10 +5,12 @@
 #include "codec/block_codec.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <string>
 
 #include "codec/quantize.hpp"
+#include "codec/range_coder.hpp"
 #include "core/byte_reader.hpp"
 #include "core/varint.hpp"
 
@@ -123,21 +125,100 @@ std::uint32_t predict_height(std::span<const std::array<std::uint32_t, 3>> row_a
 
 }  // namespace
 
+namespace {
+
+// The adaptive models of one code-book block's positions (reset per block, so that blocks
+// decode independently), by context: see walk_codeword.
+struct PositionModels {
+  std::array<ValueModel, 4> dy;  // 0..2: min(previous dy, 2); 3: a code word's first row
+  std::array<ValueModel, 3> x;   // 0: step within a row; 1: a new row's start; 2: first point
+  std::array<ValueModel, 5> z;   // 0..3: min(bit width of the previous residual, 3); 4: first
+};
+
+struct Encoding {
+  RangeEncoder& rc;
+  std::uint32_t code(ValueModel& m, std::uint32_t value) {
+    m.encode(rc, value);
+    return value;
+  }
+};
+struct Decoding {
+  RangeDecoder& rc;
+  std::uint32_t code(ValueModel& m, std::uint32_t /*value*/) { return m.decode(rc); }
+};
+
+// Codes one code word's grid points in raster order, the same walk for both directions: the
+// encoder passes the sorted points and gets them back, the decoder passes zeros and gets the
+// decoded points. Per point: the row step dy; within a row the x step, at a row's start x
+// against the previous row's first x; the height against predict_height. Returns false when a
+// decoded value leaves the grid of 2^bits.
+template <typename Io>
+bool walk_codeword(Io& io, PositionModels& m, std::span<std::array<std::uint32_t, 3>> points, int bits) {
+  const std::uint32_t size = 1u << bits;
+  std::size_t row_start = 0, previous_row_start = 0;
+  std::uint32_t previous_dy = 0, previous_z = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::array<std::uint32_t, 3>& v = points[i];
+    const bool first = i == 0;
+    const std::array<std::uint32_t, 3> before = first ? v : points[i - 1];
+    const std::uint32_t dy = io.code(m.dy[first ? 3 : std::min<std::uint32_t>(previous_dy, 2)], v[1] - before[1] * !first);
+    const std::uint32_t y = first ? dy : before[1] + dy;
+    if (dy >= size || y >= size) return false;
+    const bool same_row = !first && dy == 0;
+    if (!first && !same_row) {
+      previous_row_start = row_start;
+      row_start = i;
+    }
+    std::uint32_t x = 0;
+    if (first) {
+      x = io.code(m.x[2], v[0]);
+    } else if (same_row) {
+      const std::uint32_t dx = io.code(m.x[0], v[0] - before[0]);
+      if (dx >= size) return false;
+      x = before[0] + dx;
+    } else {
+      const std::uint32_t pred = points[previous_row_start][0];
+      const std::uint32_t r = io.code(m.x[1], zigzag_residual(v[0], pred, bits));
+      if (r >= size) return false;
+      x = apply_residual(r, pred, bits);
+    }
+    if (x >= size) return false;
+    const std::span<const std::array<std::uint32_t, 3>> above =
+        first || row_start == 0 ? std::span<const std::array<std::uint32_t, 3>>()
+                                : std::span<const std::array<std::uint32_t, 3>>(points).subspan(
+                                      previous_row_start, row_start - previous_row_start);
+    const std::uint32_t pred = predict_height(above, before, same_row, x, bits);
+    const auto zctx = first ? 4u : std::min<std::uint32_t>(static_cast<std::uint32_t>(std::bit_width(previous_z)), 3);
+    const std::uint32_t r = io.code(m.z[zctx], zigzag_residual(v[2], pred, bits));
+    if (r >= size) return false;
+    v = {x, y, apply_residual(r, pred, bits)};
+    previous_dy = dy;
+    previous_z = r;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool codeword_points_fit(const ContainerHeader& header, std::uint64_t points, std::uint64_t raw_size) {
+  // Every point needs per_point bytes (positions, in version 1, normals and colours), and in
+  // version 2 its range-coded position at least 1/kMaxPointsPerByte of a byte.
+  const std::size_t per_point = bytes_per_codeword_point(header) - (header.version == 1 ? 0 : 6);
+  if (per_point > 0 && points > raw_size / per_point) return false;
+  return header.version == 1 || points <= kMaxPointsPerByte * raw_size;
+}
+
 std::string encode_codeword_block(std::span<const CodeWord> codewords,
                                   const ContainerHeader& header) {
   std::string out;
-  std::size_t total = 0;
-  for (const CodeWord& c : codewords) {
-    append_varint(out, c.points.size());
-    total += c.points.size();
-  }
+  for (const CodeWord& c : codewords) append_varint(out, c.points.size());
   const float step = position_step(header.patch_radius, header.position_bits);
   const int bits = header.position_bits;
-  const std::uint32_t mask = (1u << bits) - 1;
-  std::vector<std::uint32_t> ys, xs, zs, normals;
-  ys.reserve(total);
-  xs.reserve(total);
-  zs.reserve(total);
+  std::string stream;
+  RangeEncoder rc(stream);
+  Encoding io{rc};
+  PositionModels models;
+  std::vector<std::uint32_t> normals;
   std::string colors[3];
   std::vector<std::array<std::uint32_t, 3>> grid, sorted;
   for (const CodeWord& c : codewords) {
@@ -149,24 +230,7 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
     const std::vector<std::uint32_t> order = raster_order(grid);
     sorted.clear();
     for (std::uint32_t i : order) sorted.push_back(grid[i]);
-    std::size_t row_start = 0, previous_row_start = 0;
-    for (std::size_t i = 0; i < sorted.size(); ++i) {
-      const auto& v = sorted[i];
-      const bool first = i == 0;
-      const std::uint32_t dy = first ? v[1] : v[1] - sorted[i - 1][1];
-      const bool same_row = !first && dy == 0;
-      if (!first && !same_row) {
-        previous_row_start = row_start;
-        row_start = i;
-      }
-      const std::span<const std::array<std::uint32_t, 3>> above =
-          first || row_start == 0 ? std::span<const std::array<std::uint32_t, 3>>()
-                                  : std::span(sorted).subspan(previous_row_start, row_start - previous_row_start);
-      ys.push_back(dy);
-      xs.push_back(same_row ? v[0] - sorted[i - 1][0] : v[0]);
-      const std::uint32_t pred = predict_height(above, first ? v : sorted[i - 1], same_row, v[0], bits);
-      zs.push_back(zigzag_residual(v[2], pred, bits) & mask);
-    }
+    walk_codeword(io, models, sorted, bits);
     for (std::uint32_t i : order) {
       if (header.has_normals()) {
         const Vec3f n = i < c.normals.size() ? c.normals[i] : Vec3f::UnitZ();
@@ -182,9 +246,9 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
       }
     }
   }
-  put_planes(out, ys);
-  put_planes(out, xs);
-  put_planes(out, zs);
+  rc.finish();
+  append_varint(out, stream.size());
+  out += stream;
   if (header.has_normals()) put_planes(out, normals);
   if (header.has_colors()) out += colors[0] + colors[1] + colors[2];
   return out;
@@ -231,9 +295,8 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
 Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& entry,
                              const ContainerHeader& header, DecodedCodewords& out) {
   ByteReader reader(raw);
-  const std::size_t per_point = bytes_per_codeword_point(header);
-  // Every point needs per_point bytes, so the seek table's count is bounded by the payload.
-  if (entry.point_count > raw.size() / per_point) {
+  const bool v1 = header.version == 1;
+  if (!codeword_points_fit(header, entry.point_count, raw.size())) {
     return payload_error(0, "point count " + std::to_string(entry.point_count) + " cannot fit in " +
                                 std::to_string(raw.size()) + " bytes");
   }
@@ -265,7 +328,12 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     taken = *span;
     return true;
   };
-  if (!take(6 * n, pos_bytes) || (header.has_normals() && !take(4 * n, normal_bytes)) ||
+  std::uint64_t stream_size = 6 * n;
+  if (!v1 && !reader.read_varint(stream_size).ok()) {
+    return payload_error(reader.position(), "bad or truncated position stream size");
+  }
+  if (stream_size > raw.size() || !take(static_cast<std::size_t>(stream_size), pos_bytes) ||
+      (header.has_normals() && !take(4 * n, normal_bytes)) ||
       (header.has_colors() && !take(3 * n, color_bytes))) {
     return payload_error(reader.position(), "payload ends inside the point data");
   }
@@ -296,35 +364,20 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
       set_point(i, v);
     }
   } else {
-    const auto plane = [&](std::size_t stream, std::size_t i) {
-      const std::size_t base = 2 * n * stream;
-      return byte_at(pos_bytes, base + i) | (static_cast<std::uint32_t>(byte_at(pos_bytes, base + n + i)) << 8);
-    };
-    std::vector<std::array<std::uint32_t, 3>> grid(n);
-    for (std::uint32_t c = 0; c < entry.count; ++c) {
-      std::size_t row_start = out.offsets[c], previous_row_start = row_start;
-      for (std::size_t i = out.offsets[c]; i < out.offsets[c + 1]; ++i) {
-        const std::uint32_t dy = plane(0, i), x = plane(1, i), z = plane(2, i);
-        overflow |= (dy | x | z) >> pbits;
-        const bool first = i == out.offsets[c];
-        const bool same_row = !first && dy == 0;
-        if (!first && !same_row) {
-          previous_row_start = row_start;
-          row_start = i;
-        }
-        std::array<std::uint32_t, 3>& v = grid[i];
-        v[1] = first ? dy : grid[i - 1][1] + dy;
-        v[0] = same_row ? grid[i - 1][0] + x : x;
-        overflow |= (v[0] | v[1]) >> pbits;
-        const std::span<const std::array<std::uint32_t, 3>> above =
-            first || row_start == out.offsets[c]
-                ? std::span<const std::array<std::uint32_t, 3>>()
-                : std::span<const std::array<std::uint32_t, 3>>(grid).subspan(previous_row_start, row_start - previous_row_start);
-        const std::uint32_t pred = predict_height(above, first ? v : grid[i - 1], same_row, v[0], pbits);
-        v[2] = apply_residual(z & ((1u << pbits) - 1), pred, pbits);
-        if (overflow != 0) break;
-        set_point(i, v);
-      }
+    RangeDecoder rc(pos_bytes);
+    Decoding io{rc};
+    PositionModels models;
+    std::vector<std::array<std::uint32_t, 3>> grid(n, {0, 0, 0});
+    for (std::uint32_t c = 0; c < entry.count && overflow == 0; ++c) {
+      const std::span<std::array<std::uint32_t, 3>> points(grid.data() + out.offsets[c],
+                                                            out.offsets[c + 1] - out.offsets[c]);
+      if (!walk_codeword(io, models, points, pbits)) overflow = 1;
+    }
+    if (overflow == 0 && !rc.finish()) {
+      return payload_error(0, "the position stream does not end where its size says");
+    }
+    if (overflow == 0) {
+      for (std::size_t i = 0; i < n; ++i) set_point(i, grid[i]);
     }
   }
   if (overflow != 0) return payload_error(0, "a position value exceeds position_bits");

@@ -41,8 +41,17 @@ struct DecodedPatches {
   std::uint32_t count() const { return static_cast<std::uint32_t>(codeword.size()); }
 };
 
-// Bytes one code-word point takes in a payload, given the header's flags.
+// The most points a version 2 code-book payload may hold per byte: a range-coded position
+// costs more than 1/8 of a bit (its 15 binary decisions each cost at least 0.011 bits), so an
+// honest writer never comes near; a reader refuses more before it allocates.
+inline constexpr std::size_t kMaxPointsPerByte = 64;
+
+// Bytes one code-word point takes in a version 1 payload, given the header's flags.
 std::size_t bytes_per_codeword_point(const ContainerHeader& header);
+
+// Whether `points` code-word points can fit in a code-book payload of `raw_size` bytes (the
+// bound a reader checks before it allocates anything for them).
+bool codeword_points_fit(const ContainerHeader& header, std::uint64_t points, std::uint64_t raw_size);
 
 std::string encode_codeword_block(std::span<const CodeWord> codewords,
                                   const ContainerHeader& header);

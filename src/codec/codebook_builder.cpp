@@ -11,6 +11,7 @@
 #include "codec/canonical_frame.hpp"
 #include "codec/codeword_surface.hpp"
 #include "codec/icp.hpp"
+#include "codec/spatial_order.hpp"
 #include "core/parallel.hpp"
 
 namespace sspc::codec {
@@ -115,6 +116,8 @@ CodeWord make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> i
   return cw;
 }
 
+constexpr float kMaxDrift = 0.5f;  // in coverage radii
+
 struct Match {
   bool accepted = false;
   RigidTransform world_from_codeword;
@@ -142,49 +145,114 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   icp.max_iterations = 30;
   icp.point_to_point_weight = 1.0f;
   icp.lever_arm = o.patch_radius;
-  // The region decoder's cells are Voronoi cells of the instances' origins: pin k's centre to
-  // the code word's origin (tangentially; the normal offset stays free) so that a match cannot
-  // slide the region off the points it must cover. Without the pin, ICP slid the origin past
-  // the drift limit below in 54% of dragon_scans' alignments.
-  icp.anchor_weight = 2.0f;
   const IcpResult aligned = align_point_to_plane(source, surface, icp);
 
   const RigidTransform codeword_from_world =
       aligned.target_from_source * start;
   const RigidTransform world_from_codeword = codeword_from_world.inverse();
   Match m;
-  if ((world_from_codeword.translation - centre).norm() > 0.2f * o.coverage_radius) return m;
+  // The instance's region is the cell of where the code word's origin lands. ICP may slide a
+  // patch onto its copy (on exactly self-similar surfaces the copy is rarely centred where the
+  // patch is); build_codebook restores coverage afterwards. Beyond half the coverage radius the
+  // patch's points no longer surround the new region.
+  const Vec3f landed = world_from_codeword.translation;
+  if ((landed - centre).norm() > kMaxDrift * o.coverage_radius) return m;
 
-  const float claim2 = (1.2f * o.coverage_radius) * (1.2f * o.coverage_radius);
-  const float hole = 2.5f * o.spacing;
+  // The test measures what the codec is judged by (SPEC step 11): within the region the
+  // instance will decode (the points within the coverage radius of its centre), the RMS
+  // distance from each source point to the nearest code-word point, and from each code-word
+  // point to the nearest source point. The paper's MLS residual sees only the distance to the
+  // surface: a code word sampled more sparsely than the patch, or offset along it, passed that
+  // test and cost dragon_scans 6 dB for a code-book ratio of 1.6. Besides the RMS, no more than
+  // 1% of either side may be farther than a hole (2.5 spacings): a code word must neither leave
+  // a hole in the patch nor put points where the surface has none (past a scan's edge).
+  const float core2 = o.coverage_radius * o.coverage_radius;
+  const float hole2 = (2.5f * o.spacing) * (2.5f * o.spacing);
   double sse = 0;
-  std::size_t uncovered = 0, claimed = 0;
+  std::size_t n = 0, holes = 0;
   for (std::size_t j = 0; j < source.size(); ++j) {
-    const Vec3f x = codeword_from_world.apply(cloud.positions[idx[j]]);
-    float nearest = 0;
-    const float f = surface.mls_residual(x, &nearest);
-    sse += static_cast<double>(f) * static_cast<double>(f);
-    if ((cloud.positions[idx[j]] - centre).squaredNorm() <= claim2) {
-      ++claimed;
-      if (nearest > hole) ++uncovered;
-    }
+    if ((cloud.positions[idx[j]] - landed).squaredNorm() > core2) continue;
+    float d2 = 0;
+    surface.tree().nearest(codeword_from_world.apply(cloud.positions[idx[j]]), &d2);
+    sse += static_cast<double>(d2);
+    holes += d2 > hole2 ? 1 : 0;
+    ++n;
   }
-  const double rms = std::sqrt(sse / static_cast<double>(std::max<std::size_t>(source.size(), 1)));
-  if (rms > static_cast<double>(o.tau * o.spacing)) return m;
-  if (uncovered * 100 > claimed) return m;
-  // And the other way: the code word must not put points where the surface has none (past the
-  // edge of a scan, across a hole), or every decoded model grows a fringe there.
-  const float hole2 = hole * hole;
-  std::size_t stray = 0;
+  const double tau2 = static_cast<double>(o.tau * o.spacing) * static_cast<double>(o.tau * o.spacing);
+  if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
+  sse = 0;
+  n = 0;
+  holes = 0;
   for (const Vec3f& p : surface.points()) {
+    if (p.squaredNorm() > core2) continue;
     float d2 = 0;
     points_tree.nearest(world_from_codeword.apply(p), &d2);
-    if (d2 > hole2) ++stray;
+    sse += static_cast<double>(d2);
+    holes += d2 > hole2 ? 1 : 0;
+    ++n;
   }
-  if (stray * 100 > surface.points().size()) return m;
+  if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
   m.accepted = true;
   m.world_from_codeword = world_from_codeword;
   return m;
+}
+
+// Matches may move an instance's origin (see try_match), and the decoder's regions are the cells
+// of the origins: every point must lie within the coverage radius of one, or its cell's code
+// word need not reach it. Points left uncovered get new patches of their own, greedily in index
+// order, each its own code word. Then the patches are put back in spatial order.
+std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree, const CodebookOptions& o,
+                            EncodedModel& model) {
+  std::vector<Vec3f> origins;
+  origins.reserve(model.patches.size());
+  for (const PatchInstance& p : model.patches) origins.push_back(p.region_centre());
+  std::vector<std::uint8_t> uncovered(cloud.size(), 0);
+  {
+    const KdTree3 origin_tree(origins);
+    const float r2 = o.coverage_radius * o.coverage_radius;
+    parallel_for(0, cloud.size(), 4096, [&](std::size_t i) {
+      float d2 = 0;
+      origin_tree.nearest(cloud.positions[i], &d2);
+      uncovered[i] = d2 > r2 ? 1 : 0;
+    });
+  }
+  std::vector<Vec3f> added;
+  const float r2 = o.coverage_radius * o.coverage_radius;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (uncovered[i] == 0) continue;
+    const Vec3f& p = cloud.positions[i];
+    bool covered = false;
+    for (const Vec3f& c : added) {
+      if ((c - p).squaredNorm() <= r2) {
+        covered = true;
+        break;
+      }
+    }
+    if (!covered) added.push_back(p);
+  }
+  std::vector<Neighbor> near;
+  std::vector<std::uint32_t> idx;
+  for (const Vec3f& c : added) {
+    points_tree.radius(c, o.patch_radius, near, false);
+    idx.clear();
+    for (const Neighbor& nb : near) idx.push_back(nb.index);
+    std::sort(idx.begin(), idx.end());
+    RigidTransform world_from_codeword;
+    world_from_codeword.rotation = canonical_frame(cloud.positions, cloud.normals, idx).world_from_canonical.rotation;
+    world_from_codeword.translation = c;
+    model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword});
+    model.codebook.push_back(make_codeword(cloud, idx, world_from_codeword));
+  }
+  if (!added.empty()) {
+    std::vector<Vec3f> all;
+    for (const PatchInstance& p : model.patches) all.push_back(p.region_centre());
+    const std::vector<std::uint32_t> order = spatial_order(all, cloud.bounding_box());
+    std::vector<PatchInstance> sorted;
+    sorted.reserve(order.size());
+    for (std::uint32_t k : order) sorted.push_back(model.patches[k]);
+    model.patches = std::move(sorted);
+  }
+  return added.size();
 }
 
 }  // namespace
@@ -275,12 +343,14 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   }
   progress_advance(progress, done);
   progress_end(progress);
+  const std::size_t repaired = repair_coverage(cloud, points_tree, o, model);
 
   if (stats != nullptr) {
     stats->patches = n;
     stats->codewords = model.codebook.size();
     stats->candidates_tested = tested;
     stats->accepted = accepted;
+    stats->repaired = repaired;
     stats->mean_patch_points = n > 0 ? static_cast<double>(patches.indices.size()) / static_cast<double>(n) : 0.0;
     std::size_t points = 0;
     for (const CodeWord& cw : model.codebook) points += cw.points.size();

@@ -32,6 +32,7 @@ struct CodebookStats {
   std::size_t codewords = 0;
   std::size_t candidates_tested = 0;  // ICP alignments run
   std::size_t accepted = 0;           // patches replaced by a reference
+  std::size_t repaired = 0;           // patches added to restore coverage after matching
   double mean_patch_points = 0;
   std::size_t codeword_points = 0;    // Σ code-word sizes
 };

@@ -187,7 +187,6 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
     }
   }
 
-  const std::size_t per_point = bytes_per_codeword_point(h);
   auto parse_entries = [&](const SectionEntry& seek, const SectionEntry& data, std::uint64_t count,
                            std::uint32_t per_block, std::uint64_t items, bool patches,
                            std::vector<BlockEntry>& out) -> Status {
@@ -233,7 +232,7 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
         x.box = Box3f(lo, hi);
       } else {
         x.point_count = le32(e + 28);
-        if (x.point_count > x.raw_size / per_point) {
+        if (!codeword_points_fit(h, x.point_count, x.raw_size)) {
           return fail(at + 28, what + ": " + std::to_string(x.point_count) +
                                    " points cannot fit in " + std::to_string(x.raw_size) +
                                    " bytes");

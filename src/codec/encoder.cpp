@@ -9,6 +9,7 @@
 #include "codec/container_writer.hpp"
 #include "codec/levels.hpp"
 #include "codec/model_builder.hpp"
+#include "codec/patch_centres.hpp"
 #include "codec/quantize.hpp"
 
 namespace sspc {
@@ -99,7 +100,11 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.spacing = build_stats.spacing;
   stats.patch_radius = build_stats.patch_radius;
   stats.coverage_radius = build_stats.coverage_radius;
-  stats.max_coverage_distance = build_stats.centres.max_distance;
+  // Over the instances' final origins, whose cells the decoder emits (the centres may have
+  // moved in matching).
+  std::vector<Vec3f> origins;
+  for (const codec::PatchInstance& p : model.patches) origins.push_back(p.region_centre());
+  stats.max_coverage_distance = codec::max_distance_to_centres(cloud.positions, origins);
   stats.candidates_tested = build_stats.codebook.candidates_tested;
   stats.file_bytes = written.file_bytes;
   stats.codebook_bytes = written.codebook_bytes;

@@ -47,17 +47,6 @@ IcpResult align_point_to_plane(std::span<const Vec3f> source, const CodewordSurf
       }
       ++pairs;
     }
-    if (options.anchor_weight > 0) {
-      const double wa = static_cast<double>(options.anchor_weight) * static_cast<double>(source.size());
-      const Vec3d xd = t.apply(options.anchor).cast<double>();
-      for (int a = 0; a < 2; ++a) {
-        const Vec3d axis = Vec3d::Unit(a);
-        Eigen::Matrix<double, 6, 1> pin;
-        pin << xd.cross(axis), axis;
-        ata.selfadjointView<Eigen::Lower>().rankUpdate(pin, wa);
-        atb -= wa * pin * xd(a);
-      }
-    }
     result.iterations = iteration + 1;
     result.rms = pairs > 0 ? static_cast<float>(std::sqrt(sse / static_cast<double>(pairs))) : 0.0f;
     if (pairs < 6) break;

@@ -22,13 +22,6 @@ struct IcpOptions {
   // lets a patch slide freely along flat parts, where any offset fits; the metric the codec is
   // judged by (nearest-point RMS) does see the slide, and a small point-to-point term pins it.
   float point_to_point_weight = 0.1f;
-  // Pins `anchor` (a source point) to the target's origin along the target's x and y axes with
-  // this weight per source point; 0: no pin. The codec anchors a candidate's centre to the code
-  // word's origin: the decoder's regions are Voronoi cells of the instances' origins, so a match
-  // that slides the origin along the surface (free on flat and cylindrical patches) would move
-  // the region away from the points it must cover.
-  float anchor_weight = 0;
-  Vec3f anchor = Vec3f::Zero();
 };
 
 struct IcpResult {

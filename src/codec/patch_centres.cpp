@@ -168,6 +168,7 @@ double max_distance_to_centres(std::span<const Vec3f> points, std::span<const Ve
 std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& points_tree,
                                         const CentreOptions& options, CentreStats* stats) {
   const float radius = options.coverage_radius;
+  const float spread = radius * options.spread;
   Progress* progress = options.progress;
   std::vector<Vec3f> centres;
   if (cloud.empty()) return centres;
@@ -175,7 +176,7 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
 
   progress_begin(progress, "centres: Poisson-disk start", cloud.size(), "points");
   {
-    CentreGrid grid(radius, origin);
+    CentreGrid grid(spread, origin);
     const std::vector<std::uint32_t> order = random_order(cloud.size(), options.seed);
     for (std::size_t i = 0; i < order.size(); ++i) {
       const Vec3f& p = cloud.positions[order[i]];
@@ -194,7 +195,7 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
   std::vector<float> strength;
   if (options.attraction_rounds > 0) strength = feature_strength(cloud, points_tree);
   for (int round = 0; round < rounds; ++round) {
-    if (round < options.repulsion_rounds) repulse(centres, radius, cloud, points_tree);
+    if (round < options.repulsion_rounds) repulse(centres, spread, cloud, points_tree);
     if (round < options.attraction_rounds) attract(centres, radius, cloud, points_tree, strength);
     progress_advance(progress, 1);
   }

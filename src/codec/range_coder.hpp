@@ -1,0 +1,85 @@
+// An adaptive binary range coder and the value models built on it, for the code words' point
+// streams (docs/FORMAT.md, "Range coding").
+//
+// Why our own entropy coder: code-book blocks are small (tens of code words, so that one patch
+// decodes without reading much else) and hold three streams of small integers whose
+// distributions differ. zstd codes all literals of a block with one Huffman table sent in the
+// block: the table costs as much as the gain at this size, and the streams share it. An
+// adaptive coder needs no table, adapts per stream and context, and codes fractions of a bit.
+//
+// The design is the classic carry-less-cache binary range coder (as in LZMA): a 32-bit range,
+// 11-bit probabilities that move 1/16 of the way to each coded bit, bytes out through a one-byte
+// cache that absorbs carries. Values are coded as their bit length (a bit tree of 5 binary
+// decisions) followed by the bits below the leading one, the first two of them modelled.
+//
+// The decoder is safe on untrusted input: it never reads outside its span (reads past the end
+// see zeros and are counted), and finish() tells whether exactly the encoder's bytes were used.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace sspc::codec {
+
+inline constexpr int kProbabilityBits = 11;
+inline constexpr std::uint16_t kProbabilityHalf = 1u << (kProbabilityBits - 1);
+inline constexpr int kAdaptationShift = 4;
+
+class RangeEncoder {
+ public:
+  explicit RangeEncoder(std::string& out) : out_(out) {}
+  // Codes `bit` with probability-of-zero `p`, then adapts `p`.
+  void encode(std::uint16_t& p, unsigned bit);
+  // Codes the low `bits` bits of `value` as equiprobable bits, the most significant first.
+  void encode_direct(std::uint32_t value, int bits);
+  // Flushes the last bytes; the encoder must not be used after.
+  void finish();
+
+ private:
+  void shift_low();
+  std::string& out_;
+  std::uint64_t low_ = 0;
+  std::uint32_t range_ = 0xFFFFFFFFu;
+  std::uint8_t cache_ = 0;
+  std::uint64_t pending_ = 1;  // bytes held back: the cache and then 0xFF bytes
+};
+
+class RangeDecoder {
+ public:
+  explicit RangeDecoder(std::span<const std::byte> in);
+  unsigned decode(std::uint16_t& p);
+  std::uint32_t decode_direct(int bits);
+  // True when the stream was well formed (its first byte is 0, as every encoder writes it) and
+  // the decoder used exactly all of its bytes.
+  bool finish() const { return first_byte_ok_ && position_ == in_.size() && overrun_ == 0; }
+
+ private:
+  std::uint8_t next();
+  std::span<const std::byte> in_;
+  std::size_t position_ = 0;
+  std::size_t overrun_ = 0;
+  std::uint32_t range_ = 0xFFFFFFFFu;
+  std::uint32_t code_ = 0;
+  bool first_byte_ok_ = false;
+};
+
+// An adaptive model of integers below 2^16: bit length by a 5-level bit tree, then the two
+// bits after the leading one modelled per length, the rest direct.
+class ValueModel {
+ public:
+  ValueModel() { reset(); }
+  void reset();
+  void encode(RangeEncoder& rc, std::uint32_t value);
+  std::uint32_t decode(RangeDecoder& rc);
+
+  static constexpr int kMaxBits = 16;
+
+ private:
+  std::array<std::uint16_t, 32> length_;
+  std::array<std::array<std::uint16_t, 4>, kMaxBits + 1> mantissa_;
+};
+
+}  // namespace sspc::codec
