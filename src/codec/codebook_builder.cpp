@@ -180,6 +180,7 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   }
   const double tau2 = static_cast<double>(o.tau * o.spacing) * static_cast<double>(o.tau * o.spacing);
   if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
+  const std::size_t source_core = n;
   sse = 0;
   n = 0;
   holes = 0;
@@ -192,6 +193,10 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
     ++n;
   }
   if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
+  // The instance decodes about as many points as the code word has in its region: a code word
+  // from a sparser or denser part of the scan (single against overlapping range scans) would
+  // change the density, which the nearest-point RMS tolerates up to τ. Within 10% either way.
+  if (n * 10 < source_core * 9 || n * 10 > source_core * 11) return m;
   m.accepted = true;
   m.world_from_codeword = world_from_codeword;
   return m;
