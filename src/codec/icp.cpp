@@ -21,6 +21,9 @@ IcpResult align_point_to_plane(std::span<const Vec3f> source, const CodewordSurf
     Eigen::Matrix<double, 6, 1> atb = Eigen::Matrix<double, 6, 1>::Zero();
     double sse = 0;
     std::size_t pairs = 0;
+    double sum_x2 = 0;
+    Eigen::Matrix3d sum_xxt = Eigen::Matrix3d::Zero();
+    Vec3d sum_x = Vec3d::Zero(), sum_x_cross_d = Vec3d::Zero(), sum_d = Vec3d::Zero();
     for (const Vec3f& s : source) {
       const Vec3f x = t.apply(s);
       float d2 = 0;
@@ -35,17 +38,28 @@ IcpResult align_point_to_plane(std::span<const Vec3f> source, const CodewordSurf
       atb -= row * r;
       sse += r * r;
       if (w > 0) {
-        // The point-to-point rows: (x − y)·e_a + ω·(x × e_a) + τ_a for each axis a.
-        const Vec3d e = xd - target.points()[j].cast<double>();
-        for (int a = 0; a < 3; ++a) {
-          const Vec3d axis = Vec3d::Unit(a);
-          Eigen::Matrix<double, 6, 1> p2p;
-          p2p << xd.cross(axis), axis;
-          ata.selfadjointView<Eigen::Lower>().rankUpdate(p2p, w);
-          atb -= w * p2p * e(a);
-        }
+        // The point-to-point rows (x × e_a, e_a) for the three axes, summed in closed form:
+        // Σ_a r_a r_aᵀ = [[|x|² I − x xᵀ, [x]×], [[x]×ᵀ, I]] and Σ_a r_a (x − y)_a = (x × d, d).
+        const Vec3d d = xd - target.points()[j].cast<double>();
+        sum_x2 += xd.squaredNorm();
+        sum_xxt += xd * xd.transpose();
+        sum_x += xd;
+        sum_x_cross_d += xd.cross(d);
+        sum_d += d;
       }
       ++pairs;
+    }
+    if (w > 0 && pairs > 0) {
+      Eigen::Matrix<double, 6, 6> p2p;
+      Eigen::Matrix3d cross;  // [Σx]×: [x]× v = x × v
+      cross << 0, -sum_x.z(), sum_x.y(), sum_x.z(), 0, -sum_x.x(), -sum_x.y(), sum_x.x(), 0;
+      p2p.topLeftCorner<3, 3>() = sum_x2 * Eigen::Matrix3d::Identity() - sum_xxt;
+      p2p.topRightCorner<3, 3>() = cross;
+      p2p.bottomLeftCorner<3, 3>() = cross.transpose();
+      p2p.bottomRightCorner<3, 3>() = static_cast<double>(pairs) * Eigen::Matrix3d::Identity();
+      ata.triangularView<Eigen::Lower>() += w * p2p;
+      atb.head<3>() -= w * sum_x_cross_d;
+      atb.tail<3>() -= w * sum_d;
     }
     result.iterations = iteration + 1;
     result.rms = pairs > 0 ? static_cast<float>(std::sqrt(sse / static_cast<double>(pairs))) : 0.0f;
