@@ -107,11 +107,13 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
               },
               "BOX"));
   app->add_option("--patch", o->patch,
-                  "Only patch K (its region, or its whole sphere with --overlap)")
+                  "Only patch K (its region, or all its stored points with --overlap)")
       ->type_name("K")
       ->check(CLI::NonNegativeNumber)
       ->excludes(box);
-  app->add_flag("--overlap", o->overlap, "Keep every patch's whole sphere (no region test)");
+  app->add_flag("--overlap", o->overlap,
+                "Keep every stored point of every patch, no region test (whole spheres for files "
+                "encoded with --full-spheres)");
   app->add_flag("--ascii", o->ascii, "Write ASCII PLY instead of binary");
   app->add_flag("-f,--force", o->force, "Overwrite the output if it exists");
   app->add_flag("--json", o->json, "Machine-readable summary on stdout");

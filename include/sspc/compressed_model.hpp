@@ -27,7 +27,8 @@ namespace sspc {
 
 struct DecodeOptions {
   // false: each patch keeps only the code-word points of its own region (the Voronoi cell of its
-  // centre), so the decoded count is close to the source's. true: every instance's whole sphere.
+  // centre), so the decoded count is close to the source's. true: every stored point of every
+  // instance (whole spheres when the file was written with --full-spheres).
   bool overlap = false;
   Progress* progress = nullptr;
 };

@@ -156,6 +156,20 @@ TEST(Cli, EncodeDecodeRoundTrip) {
   auto cloud = read_point_cloud(decoded);
   ASSERT_TRUE(cloud.ok());
   EXPECT_NEAR(static_cast<double>(cloud->size()), 34834.0, 3483.0);
+  EXPECT_FALSE(cloud->has_normals());  // positions only by default
+
+  // Whole spheres (the paper's layout) make a larger file that decodes to the same bytes; with
+  // --store-normals the decoded cloud has normals.
+  const std::string full = (dir.path() / "full.sspc").string();
+  const std::string full_decoded = (dir.path() / "full.ply").string();
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + full + " --full-spheres --store-normals").exit_code, 0);
+  ASSERT_EQ(sspc(dir, "decode " + full + " " + full_decoded).exit_code, 0);
+  EXPECT_GT(slurp(full).size(), slurp(one).size());
+  auto with_normals = read_point_cloud(full_decoded);
+  ASSERT_TRUE(with_normals.ok());
+  EXPECT_TRUE(with_normals->has_normals());
+  EXPECT_EQ(with_normals->positions, cloud->positions);
+
   EXPECT_EQ(sspc(dir, "encode " + one + " " + one + " -f").exit_code, 1);
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one).exit_code, 1);  // exists, no --force
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one + " --level 10").exit_code, 2);
