@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <numeric>
 
 #include <Eigen/Eigenvalues>
@@ -209,6 +210,29 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   return m;
 }
 
+// The descriptors of the patches still in the pool, indexed for L1 k-NN queries. The pool only
+// shrinks, so the tree is rebuilt over the eligible patches once a quarter of its items have
+// left: queries then touch few stale items, and the rebuilds cost O(n log n) in all.
+struct DescriptorPool {
+  std::vector<std::uint32_t> ids;  // pool item → patch
+  std::vector<float> data;
+  std::unique_ptr<KdTreeL1> tree;
+
+  template <typename Eligible>
+  void rebuild(const std::vector<float>& descriptors, std::size_t dim, std::size_t n, Eligible eligible) {
+    tree.reset();
+    ids.clear();
+    data.clear();
+    for (std::uint32_t k = 0; k < n; ++k) {
+      if (!eligible(k)) continue;
+      ids.push_back(k);
+      data.insert(data.end(), descriptors.begin() + static_cast<std::ptrdiff_t>(k * dim),
+                  descriptors.begin() + static_cast<std::ptrdiff_t>((k + 1) * dim));
+    }
+    if (!ids.empty()) tree = std::make_unique<KdTreeL1>(data, dim);
+  }
+};
+
 // Matches may move an instance's origin (see try_match), and the decoder's regions are the cells
 // of the origins: every point must lie within the coverage radius of one, or its cell's code
 // word need not reach it. Points left uncovered get new patches of their own, greedily in index
@@ -290,7 +314,6 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   progress_end(progress);
 
   const auto dim = static_cast<std::size_t>(o.descriptor.dimension());
-  const KdTreeL1 descriptor_tree(frames.descriptors, dim);
   std::vector<std::uint32_t> order(n);
   std::iota(order.begin(), order.end(), 0u);
   std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
@@ -307,53 +330,108 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   std::vector<std::uint8_t> attempts(n, 0);
   model.patches.resize(n);
   std::size_t tested = 0, accepted = 0, done = 0;
-  std::vector<L1Neighbor> near;
-  std::vector<std::uint32_t> candidates;
-  std::vector<Match> matches;
-  progress_begin(progress, "code book: greedy clustering", n, "patches");
-  for (const std::uint32_t rep : order) {
-    if (assigned[rep] != kUnassigned) continue;
-    const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
-    // The code word's frame: the representative's canonical rotation about its centre.
+  // Speculative batches: the greedy loop is sequential by nature (each representative removes
+  // patches from the pool), and on autzen most representatives have one or two candidates, so
+  // parallelising one representative's alignments left a core idle. Instead the next kBatch
+  // unassigned representatives in curvature order are aligned with their candidates in
+  // parallel, against the state at the batch's start; then the greedy loop is replayed over the
+  // batch sequentially with the current state, taking the precomputed alignments (an alignment
+  // depends only on the two patches). The state only grows (assigned stays assigned, attempts
+  // only increase), so every candidate the replay accepts was aligned in the parallel phase, and
+  // the result is exactly the sequential loop's, on any number of threads. Work is wasted only
+  // when a member is absorbed by an earlier one or a candidate is taken first.
+  constexpr std::size_t kBatch = 64;
+  // A representative aligns at most its kMaxCandidates nearest pool patches in descriptor space
+  // (those within ε). The paper aligns every patch within ε; on terrain (autzen) nearly all
+  // patches are flat and within ε of each other, and the radius queries alone made the loop
+  // quadratic (142 patches/s).
+  constexpr std::size_t kMaxCandidates = 48;
+  struct Speculation {
+    CodeWord codeword;
     RigidTransform world_from_codeword;
-    world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
-    world_from_codeword.translation = centres[rep];
-    model.codebook.push_back(make_codeword(cloud, patches[rep], world_from_codeword));
-    model.patches[rep] = {cw_index, world_from_codeword};
-    assigned[rep] = cw_index;
-    ++done;
-
-    descriptor_tree.radius(std::span<const float>(frames.descriptors.data() + rep * dim, dim), o.epsilon, near);
-    candidates.clear();
-    for (const L1Neighbor& nb : near) {
-      if (assigned[nb.index] != kUnassigned || attempts[nb.index] >= kMaxAttempts) continue;
-      candidates.push_back(nb.index);
-      ++attempts[nb.index];
+    std::vector<std::uint32_t> candidates;
+    std::vector<Match> matches;
+  };
+  std::vector<std::uint32_t> batch;
+  std::vector<Speculation> speculation(kBatch);
+  std::size_t next = 0;
+  const auto eligible = [&](std::uint32_t k) { return assigned[k] == kUnassigned && attempts[k] < kMaxAttempts; };
+  DescriptorPool pool;
+  std::size_t retired = 0;  // pool items no longer eligible since the pool was built
+  progress_begin(progress, "code book: greedy clustering", n, "patches");
+  while (next < order.size()) {
+    if (pool.ids.empty() || retired * 4 >= pool.ids.size()) {
+      pool.rebuild(frames.descriptors, dim, n, eligible);
+      retired = 0;
     }
-    if (!candidates.empty()) {
-      const CodeWord& cw = model.codebook.back();
-      const CodewordSurface surface(cw.points, cw.normals, 1.5f * o.spacing);
+    const std::size_t done_before = done;
+    batch.clear();
+    while (next < order.size() && batch.size() < kBatch) {
+      const std::uint32_t r = order[next++];
+      if (assigned[r] == kUnassigned) batch.push_back(r);
+    }
+    parallel_for(0, batch.size(), 1, [&](std::size_t b) {
+      const std::uint32_t rep = batch[b];
+      Speculation& sp = speculation[b];
+      // The code word's frame: the representative's canonical rotation about its centre.
+      sp.world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
+      sp.world_from_codeword.translation = centres[rep];
+      sp.codeword = make_codeword(cloud, patches[rep], sp.world_from_codeword);
+      std::vector<L1Neighbor> near;
+      sp.candidates.clear();
+      if (pool.tree) {
+        pool.tree->knn(std::span<const float>(frames.descriptors.data() + rep * dim, dim), kMaxCandidates, near);
+      }
+      for (const L1Neighbor& nb : near) {
+        const std::uint32_t k = pool.ids[nb.index];
+        if (nb.distance > o.epsilon || k == rep || !eligible(k)) continue;
+        sp.candidates.push_back(k);
+      }
+      sp.matches.assign(sp.candidates.size(), Match{});
+      if (sp.candidates.empty()) return;
+      const CodewordSurface surface(sp.codeword.points, sp.codeword.normals, 1.5f * o.spacing);
       const RigidTransform codeword_from_rep_canonical =
-          world_from_codeword.inverse() * frames.world_from_canonical[rep];
-      matches.assign(candidates.size(), Match{});
-      parallel_for(0, candidates.size(), 1, [&](std::size_t c) {
-        const std::uint32_t k = candidates[c];
-        matches[c] = try_match(cloud, points_tree, patches[k], centres[k], frames.world_from_canonical[k],
-                               codeword_from_rep_canonical, surface, o);
-      });
-      tested += candidates.size();
-      for (std::size_t c = 0; c < candidates.size(); ++c) {
-        if (!matches[c].accepted) continue;
-        const std::uint32_t k = candidates[c];
+          sp.world_from_codeword.inverse() * frames.world_from_canonical[rep];
+      for (std::size_t c = 0; c < sp.candidates.size(); ++c) {
+        const std::uint32_t k = sp.candidates[c];
+        sp.matches[c] = try_match(cloud, points_tree, patches[k], centres[k], frames.world_from_canonical[k],
+                                  codeword_from_rep_canonical, surface, o);
+      }
+    });
+    for (std::size_t b = 0; b < batch.size(); ++b) {
+      const std::uint32_t rep = batch[b];
+      if (assigned[rep] != kUnassigned) continue;  // absorbed by an earlier member
+      Speculation& sp = speculation[b];
+      const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
+      model.codebook.push_back(std::move(sp.codeword));
+      model.patches[rep] = {cw_index, sp.world_from_codeword};
+      if (attempts[rep] < kMaxAttempts) ++retired;
+      assigned[rep] = cw_index;
+      ++done;
+      // As the sequential loop: first the candidate list under the current state (counting
+      // the attempts), then the accepted ones.
+      std::size_t kept = 0;
+      for (std::size_t c = 0; c < sp.candidates.size(); ++c) {
+        const std::uint32_t k = sp.candidates[c];
+        if (!eligible(k)) continue;
+        if (++attempts[k] == kMaxAttempts) ++retired;
+        sp.candidates[kept] = k;
+        sp.matches[kept] = sp.matches[c];
+        ++kept;
+      }
+      tested += kept;
+      for (std::size_t c = 0; c < kept; ++c) {
+        if (!sp.matches[c].accepted) continue;
+        const std::uint32_t k = sp.candidates[c];
+        if (attempts[k] < kMaxAttempts) ++retired;  // else it retired when it ran out of attempts
         assigned[k] = cw_index;
-        model.patches[k] = {cw_index, matches[c].world_from_codeword};
+        model.patches[k] = {cw_index, sp.matches[c].world_from_codeword};
         ++accepted;
         ++done;
       }
     }
-    if ((cw_index & 255) == 0) progress_advance(progress, 0);
+    progress_advance(progress, done - done_before);
   }
-  progress_advance(progress, done);
   progress_end(progress);
   const std::size_t repaired = repair_coverage(cloud, points_tree, o, model);
 
