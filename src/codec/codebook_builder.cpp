@@ -150,7 +150,7 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   IcpOptions icp;
   icp.max_pair_distance = std::max(3.0f * o.spacing, 0.3f * o.coverage_radius);
   icp.converged_step = 0.01f * o.spacing;
-  icp.max_iterations = 30;
+  icp.max_iterations = 20;
   icp.point_to_point_weight = 1.0f;
   icp.lever_arm = o.patch_radius;
   const IcpResult aligned = align_point_to_plane(source, surface, icp);
@@ -326,7 +326,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   // would be aligned again by every later representative near it in descriptor space: the
   // encoder turned quadratic on dragon_scans. After kMaxAttempts failed alignments a patch waits
   // to become a code word itself.
-  constexpr std::uint8_t kMaxAttempts = 6;
+  constexpr std::uint8_t kMaxAttempts = 4;
   std::vector<std::uint8_t> attempts(n, 0);
   model.patches.resize(n);
   std::size_t tested = 0, accepted = 0, done = 0;
@@ -385,6 +385,11 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       for (const L1Neighbor& nb : near) {
         const std::uint32_t k = pool.ids[nb.index];
         if (nb.distance > o.epsilon || k == rep || !eligible(k)) continue;
+        // The match test keeps the region's point count within 10%; patches whose spheres'
+        // counts differ by more than a quarter practically never pass it, and skipping their
+        // alignment saved a third of autzen's clustering time.
+        const std::size_t mine = patches[k].size(), theirs = patches[rep].size();
+        if (4 * mine > 5 * theirs || 4 * theirs > 5 * mine) continue;
         sp.candidates.push_back(k);
       }
       sp.matches.assign(sp.candidates.size(), Match{});
