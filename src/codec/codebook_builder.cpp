@@ -151,6 +151,7 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   icp.max_pair_distance = std::max(3.0f * o.spacing, 0.3f * o.coverage_radius);
   icp.converged_step = 0.01f * o.spacing;
   icp.max_iterations = 20;
+  icp.abandon_rms = 3.0f * o.tau * o.spacing;  // hopeless: the test below needs RMS ≤ τ
   icp.point_to_point_weight = 1.0f;
   icp.lever_arm = o.patch_radius;
   const IcpResult aligned = align_point_to_plane(source, surface, icp);

@@ -64,6 +64,7 @@ IcpResult align_point_to_plane(std::span<const Vec3f> source, const CodewordSurf
     result.iterations = iteration + 1;
     result.rms = pairs > 0 ? static_cast<float>(std::sqrt(sse / static_cast<double>(pairs))) : 0.0f;
     if (pairs < 6) break;
+    if (options.abandon_rms > 0 && iteration >= 4 && result.rms > options.abandon_rms) break;
     // A little damping keeps directions the patch does not constrain (sliding along a plane,
     // spinning a sphere cap) where the canonical frames put them.
     const Eigen::Matrix<double, 6, 6> full = ata.selfadjointView<Eigen::Lower>();

@@ -22,6 +22,11 @@ struct IcpOptions {
   // lets a patch slide freely along flat parts, where any offset fits; the metric the codec is
   // judged by (nearest-point RMS) does see the slide, and a small point-to-point term pins it.
   float point_to_point_weight = 0.1f;
+  // Give up (and report the RMS so far) when, from the fifth iteration on, the point-to-plane
+  // RMS is still above this; 0: never. A caller that rejects alignments above some error can
+  // stop hopeless ones early: the point-to-plane residual never exceeds the distance to the
+  // nearest point.
+  float abandon_rms = 0;
 };
 
 struct IcpResult {
