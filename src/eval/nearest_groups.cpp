@@ -53,7 +53,7 @@ NearestGroups find_nearest_groups(const KdTree3& tree, std::span<const Vec3f> qu
         idx.resize(k);
         d2f.resize(k);
         found = tree.knn(p, k, idx.data(), d2f.data());
-        if (found == n || d2f[found - 1] > d2f[0] + d2f[0] * kFloatSlack) break;
+        if (found == n || d2f[found - 1] > d2f[0] + d2f[0] * kFloatSlack || found > kMaxGroup) break;
         k = std::min(k * 4, n);
       }
       double best = std::numeric_limits<double>::infinity();
@@ -64,7 +64,9 @@ NearestGroups find_nearest_groups(const KdTree3& tree, std::span<const Vec3f> qu
         if (squared_distance(p, points[idx[j]]) <= limit) members.push_back(idx[j]);
       }
       // Lowest index first: the group's order then depends on the data alone, not on the tree.
+      // The tree breaks ties by index, so a group cut at kMaxGroup keeps its lowest indices.
       std::sort(members.begin(), members.end());
+      if (members.size() > kMaxGroup) members.resize(kMaxGroup);
       groups.nearest[q] = members.front();
       groups.distance_squared[q] = best;
       for (std::size_t j = 1; j < members.size(); ++j) {

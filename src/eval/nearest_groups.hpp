@@ -29,6 +29,12 @@ namespace sspc::eval {
 // kilometres. A zero distance ties only with zero (exact duplicates).
 inline constexpr double kTieRelativeTolerance = 1e-12;
 
+// A group holds at most this many points, the lowest indices of the tie, as pc_error's does
+// (it fetches 30 neighbours). Coders that quantise coarsely decode hundreds of coincident points
+// per cell; uncapped, every query near such a cell grew its search and its group to all of
+// them (Draco's 8-bit autzen: 7 GB and many minutes).
+inline constexpr std::size_t kMaxGroup = 30;
+
 // For every query point, the group of tree points at the minimum distance.
 struct NearestGroups {
   // Per query: the lowest index in its group, and the group's squared distance (the minimum,
