@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the bundled sample (data/bunny.ply): install, build, then read the cloud,
 # estimate and orient normals and evaluate them, compress it, verify and decode the file, and
-# evaluate the decoded cloud against the original (rendering comes with the renderer).
+# evaluate the decoded cloud against the original, and ray-trace the MLS surfaces of the original
+# and of the decoded cloud into out/bunny.png and out/bunny_decoded.png (rendering the
+# compressed model directly, without decoding, comes next).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
@@ -17,3 +19,5 @@ build/sspc verify out/bunny.sspc
 build/sspc info out/bunny.sspc
 build/sspc decode out/bunny.sspc out/bunny_decoded.ply --force
 build/sspc eval data/bunny.ply out/bunny_decoded.ply --compressed out/bunny.sspc
+build/sspc render data/bunny.ply -o out/bunny.png --size 512x512 --force
+build/sspc render out/bunny_decoded.ply -o out/bunny_decoded.png --size 512x512 --force

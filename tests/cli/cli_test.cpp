@@ -175,5 +175,25 @@ TEST(Cli, EncodeDecodeRoundTrip) {
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one + " --level 10").exit_code, 2);
 }
 
+// render writes a PNG of the bunny, the same bytes on 1 and 2 threads; bad sizes are usage
+// errors and a compressed model is refused for now with a message that says what to do.
+TEST(Cli, RenderWritesAPng) {
+  test::TempDir dir;
+  const std::string one = (dir.path() / "one.png").string();
+  const std::string two = (dir.path() / "two.png").string();
+  ASSERT_EQ(sspc(dir, "--threads 1 render " + bunny() + " -o " + one + " --size 48x40").exit_code, 0);
+  ASSERT_EQ(sspc(dir, "--threads 2 render " + bunny() + " -o " + two + " --size 48x40 --json").exit_code, 0);
+  const std::string png = slurp(one);
+  ASSERT_GT(png.size(), 8u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(png, slurp(two));
+  EXPECT_EQ(sspc(dir, "render " + bunny() + " -o " + one + " -f --size 48").exit_code, 1);
+  const std::string model = (dir.path() / "m.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model).exit_code, 0);
+  const auto refused = sspc(dir, "render " + model + " -o " + one + " -f");
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("decode"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace sspc

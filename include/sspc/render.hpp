@@ -1,0 +1,61 @@
+// Ray tracing point clouds through their MLS surface (Hubo et al. 2007, §5; SPEC step 10).
+// This first part renders an uncompressed cloud; the compressed model follows (issue 4).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc {
+
+enum class Shade { kLambert, kNormal, kDepth };
+
+struct Camera {
+  Vec3f eye = Vec3f(0, 0, 1);
+  Vec3f target = Vec3f::Zero();
+  Vec3f up = Vec3f::UnitY();
+  float fov_degrees = 40;  // vertical field of view
+};
+
+// A camera that frames `bounds` from the +Z side (the usual "front" of a scan), or null bounds.
+Camera frame_bounds(const Box3f& bounds, float fov_degrees = 40);
+
+struct RenderOptions {
+  int width = 1024;
+  int height = 1024;
+  Camera camera;
+  Shade shade = Shade::kLambert;
+  // The MLS bandwidth h in point spacings (the cloud's median nearest-neighbour distance).
+  float bandwidth = 1.5f;
+  Progress* progress = nullptr;
+};
+
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<std::uint8_t> rgb;  // row-major from the top, 3 bytes a pixel
+  std::vector<float> depth;       // ray parameter t of the hit, +inf where the ray missed
+};
+
+struct RenderStats {
+  double build_seconds = 0;
+  double render_seconds = 0;
+  std::uint64_t rays = 0;
+  std::uint64_t hits = 0;
+  std::uint64_t evaluations = 0;  // MLS evaluations, all rays
+};
+
+// Renders `cloud` (which must have unit normals; see ensure_normals). Deterministic: the image
+// does not depend on the thread count.
+StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& options,
+                                   RenderStats* stats = nullptr);
+
+// Writes an 8-bit RGB PNG atomically.
+Status write_png(const Image& image, const std::filesystem::path& path);
+
+}  // namespace sspc
