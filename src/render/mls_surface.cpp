@@ -1,6 +1,7 @@
 #include "render/mls_surface.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace sspc::render {
 
@@ -18,9 +19,15 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
     : points_(points), normals_(normals), h_(bandwidth), reach_(3.0f * bandwidth), tree_(points) {}
 
 bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n) const {
+  float nearest = 0;
+  return evaluate(x, a, n, nearest);
+}
+
+bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& nearest) const {
   std::uint32_t idx[kNeighbours];
   float d2[kNeighbours];
   const std::size_t found = tree_.knn(x, kNeighbours, idx, d2);
+  nearest = found == 0 ? std::numeric_limits<float>::infinity() : std::sqrt(d2[0]);
   if (found == 0 || d2[0] > reach_ * reach_) return false;
   const float inv_h2 = 1.0f / (h_ * h_);
   Vec3f sum_p = Vec3f::Zero(), sum_n = Vec3f::Zero();
@@ -44,10 +51,11 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
   // The signed distance to the local plane, f(x) = n(x)·(x − a(x)), positive on the side the
   // normals face; false where the surface is undefined.
   Vec3f a, n;
+  float nearest = 0;
   const auto f_at = [&](float t, float& f) {
     ++hit.evaluations;
     const Vec3f x = o + t * d;
-    if (!evaluate(x, a, n)) return false;
+    if (!evaluate(x, a, n, nearest)) return false;
     n.normalize();
     f = n.dot(x - a);
     return true;
@@ -55,19 +63,23 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
   float t = t_min;
   bool have_previous = false;
   float t_previous = 0, f_previous = 0;
+  bool near_points = false;  // the last sample had a point within reach
   while (t <= t_max) {
-    float d2 = 0;
-    tree_.nearest(o + t * d, &d2);
-    const float nearest = std::sqrt(d2);
-    if (nearest > reach_) {
-      // No point within reach: the surface cannot be nearer than nearest − reach.
-      t += std::max(nearest - reach_, 0.25f * h_);
-      have_previous = false;
-      continue;
+    if (!near_points) {
+      // In empty space a nearest-point query is enough to take the next step.
+      float d2 = 0;
+      tree_.nearest(o + t * d, &d2);
+      nearest = std::sqrt(d2);
+      if (nearest > reach_) {
+        t += std::max(nearest - reach_, 0.25f * h_);
+        continue;
+      }
     }
     float f = 0;
-    if (!f_at(t, f)) {
-      t += 0.5f * h_;
+    near_points = f_at(t, f);
+    if (!near_points) {
+      // No point within reach: the surface cannot be nearer than nearest − reach.
+      t += std::max(nearest - reach_, 0.25f * h_);
       have_previous = false;
       continue;
     }
@@ -104,8 +116,10 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     have_previous = true;
     t_previous = t;
     f_previous = f;
-    // Half the bandwidth: a surface is found unless two crossings lie closer than that.
-    t += 0.5f * h_;
+    // At least half the bandwidth, and up to 90% of the distance to the local plane (along the
+    // ray the plane is at least that far): a surface is found unless two crossings lie closer
+    // than the step.
+    t += std::max(0.5f * h_, 0.9f * std::abs(f));
   }
   return std::nullopt;
 }

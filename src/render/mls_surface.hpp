@@ -42,6 +42,8 @@ class MlsSurface {
 
   // a(x) and n(x) (unnormalised mean normal); false where no point is within reach of x.
   bool evaluate(const Vec3f& x, Vec3f& a, Vec3f& n) const;
+  // The same, and the distance from x to the nearest point.
+  bool evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& nearest) const;
 
   float bandwidth() const { return h_; }
   const KdTree3& tree() const { return tree_; }
