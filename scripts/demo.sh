@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the bundled sample (data/bunny.ply): install, build, then read the cloud,
 # estimate and orient normals and evaluate them, compress it, verify and decode the file, and
-# evaluate the decoded cloud against the original, and ray-trace the MLS surfaces of the original
-# and of the decoded cloud into out/bunny.png and out/bunny_decoded.png (rendering the
-# compressed model directly, without decoding, comes next).
+# evaluate the decoded cloud against the original, and ray-trace the MLS surface of the original
+# (out/bunny.png) and of the compressed model without decoding it (out/bunny_compressed.png, and
+# out/bunny_codewords.png coloured by code word).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
@@ -20,4 +20,5 @@ build/sspc info out/bunny.sspc
 build/sspc decode out/bunny.sspc out/bunny_decoded.ply --force
 build/sspc eval data/bunny.ply out/bunny_decoded.ply --compressed out/bunny.sspc
 build/sspc render data/bunny.ply -o out/bunny.png --size 512x512 --force
-build/sspc render out/bunny_decoded.ply -o out/bunny_decoded.png --size 512x512 --force
+build/sspc render out/bunny.sspc -o out/bunny_compressed.png --size 512x512 --force
+build/sspc render out/bunny.sspc -o out/bunny_codewords.png --size 512x512 --shade codeword --force

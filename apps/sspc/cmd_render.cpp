@@ -1,5 +1,5 @@
-// sspc render IN -o OUT.png: ray-trace a point cloud's MLS surface (SPEC step 10). This part
-// renders uncompressed clouds; the compressed model is rendered directly in the next part.
+// sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
+// directly, without decoding it (SPEC step 10, paper §5).
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -45,32 +45,42 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   if (!o.force && std::filesystem::exists(o.output, ec)) {
     return report_failure(invalid_argument(o.output + ": exists; pass -f/--force to overwrite it"));
   }
-  if (is_sspc_file(o.input)) {
-    return report_failure(unsupported(o.input + ": rendering a compressed model directly is not implemented yet; "
-                                      "`sspc decode` it and render the decoded cloud"));
-  }
   RenderOptions options;
   if (!parse_size(o.size, options.width, options.height)) {
     return report_failure(invalid_argument("--size must be WIDTHxHEIGHT, got '" + o.size + "'"));
   }
   auto progress = make_progress(global);
-  ReadOptions read;
-  read.progress = progress.get();
-  auto cloud = read_point_cloud(o.input, read);
-  if (!cloud.ok()) return report_failure(cloud.status());
-  NormalOptions normals;
-  normals.progress = progress.get();
-  if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input + ": "));
-
-  options.camera = frame_bounds(cloud->bounding_box(), o.fov);
-  if (auto v = parse_vec3(o.eye)) options.camera.eye = *v;
-  if (auto v = parse_vec3(o.target)) options.camera.target = *v;
-  if (auto v = parse_vec3(o.up)) options.camera.up = *v;
   options.shade = o.shade;
   options.bandwidth = o.bandwidth;
   options.progress = progress.get();
+  const auto set_camera = [&](const Box3f& bounds) {
+    options.camera = frame_bounds(bounds, o.fov);
+    if (auto v = parse_vec3(o.eye)) options.camera.eye = *v;
+    if (auto v = parse_vec3(o.target)) options.camera.target = *v;
+    if (auto v = parse_vec3(o.up)) options.camera.up = *v;
+  };
   RenderStats stats;
-  auto image = render_point_cloud(*cloud, options, &stats);
+  StatusOr<Image> image = invalid_argument("nothing rendered");
+  std::uint64_t points = 0;
+  if (is_sspc_file(o.input)) {
+    auto model = CompressedModel::open(o.input);
+    if (!model.ok()) return report_failure(model.status());
+    const ModelInfo info = model->info();
+    points = info.source_points;
+    set_camera(info.bounds);
+    image = render_compressed(*model, options, &stats);
+  } else {
+    ReadOptions read;
+    read.progress = progress.get();
+    auto cloud = read_point_cloud(o.input, read);
+    if (!cloud.ok()) return report_failure(cloud.status());
+    NormalOptions normals;
+    normals.progress = progress.get();
+    if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input + ": "));
+    points = cloud->size();
+    set_camera(cloud->bounding_box());
+    image = render_point_cloud(*cloud, options, &stats);
+  }
   if (!image.ok()) return report_failure(image.status().with_context(o.input + ": "));
   if (Status s = write_png(*image, o.output); !s.ok()) return report_failure(s);
 
@@ -80,7 +90,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     json.begin_object()
         .field("input", o.input)
         .field("output", o.output)
-        .field("points", static_cast<std::uint64_t>(cloud->size()))
+        .field("points", points)
         .field("width", options.width)
         .field("height", options.height)
         .field("rays", stats.rays)
@@ -89,11 +99,13 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         .field("build_seconds", stats.build_seconds)
         .field("render_seconds", stats.render_seconds)
         .field("rays_per_second", rays_per_second)
+        .field("scene_bytes", stats.scene_bytes)
+        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(stats.scene_bytes) / static_cast<double>(points) : 0.0)
         .end_object();
     print_line(json.str());
   } else {
-    std::printf("%s: %zu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
-                o.input.c_str(), cloud->size(), o.output.c_str(), options.width, options.height,
+    std::printf("%s: %llu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
+                o.input.c_str(), static_cast<unsigned long long>(points), o.output.c_str(), options.width, options.height,
                 static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.rays),
                 stats.build_seconds, stats.render_seconds, rays_per_second);
   }
@@ -104,8 +116,8 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
 
 Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<RenderCliOptions>();
-  CLI::App* app = root.add_subcommand("render", "Ray-trace a point cloud's MLS surface into a PNG");
-  app->add_option("input", o->input, "Point cloud to render (PLY, XYZ/PTS, PCD)")->required();
+  CLI::App* app = root.add_subcommand("render", "Ray-trace a point cloud's or a compressed model's MLS surface into a PNG");
+  app->add_option("input", o->input, "Point cloud (PLY, XYZ/PTS, PCD) or compressed model (.sspc)")->required();
   app->add_option("-o,--output", o->output, "PNG file to write")->required();
   app->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
   app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator);
@@ -113,8 +125,11 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator);
   app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(CLI::Range(1.0f, 170.0f))->capture_default_str();
   app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(CLI::Range(0.5f, 20.0f))->capture_default_str();
-  const std::map<std::string, Shade> shades{{"lambert", Shade::kLambert}, {"normal", Shade::kNormal}, {"depth", Shade::kDepth}};
-  app->add_option("--shade", o->shade, "lambert, normal or depth")
+  const std::map<std::string, Shade> shades{{"lambert", Shade::kLambert},
+                                            {"normal", Shade::kNormal},
+                                            {"depth", Shade::kDepth},
+                                            {"codeword", Shade::kCodeword}};
+  app->add_option("--shade", o->shade, "lambert, normal, depth, or codeword (a colour per code word)")
       ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case))
       ->default_str("lambert");
   app->add_flag("-f,--force", o->force, "Overwrite an existing output file");

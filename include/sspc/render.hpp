@@ -1,5 +1,6 @@
 // Ray tracing point clouds through their MLS surface (Hubo et al. 2007, §5; SPEC step 10).
-// This first part renders an uncompressed cloud; the compressed model follows (issue 4).
+// The same MLS surface and camera render an uncompressed cloud and a compressed model, so their
+// images and timings compare one to one.
 #pragma once
 
 #include <cstdint>
@@ -7,13 +8,16 @@
 #include <optional>
 #include <vector>
 
+#include "sspc/compressed_model.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 #include "sspc/status.hpp"
 
 namespace sspc {
 
-enum class Shade { kLambert, kNormal, kDepth };
+// kCodeword colours each pixel by the code word of the patch that contributed most to it (the
+// paper's Figure 6); an uncompressed cloud is one colour.
+enum class Shade { kLambert, kNormal, kDepth, kCodeword };
 
 struct Camera {
   Vec3f eye = Vec3f(0, 0, 1);
@@ -48,12 +52,19 @@ struct RenderStats {
   std::uint64_t rays = 0;
   std::uint64_t hits = 0;
   std::uint64_t evaluations = 0;  // MLS evaluations, all rays
+  std::uint64_t scene_bytes = 0;  // points and normals held, plus the acceleration structure
 };
 
 // Renders `cloud` (which must have unit normals; see ensure_normals). Deterministic: the image
 // does not depend on the thread count.
 StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& options,
                                    RenderStats* stats = nullptr);
+
+// Renders a compressed model directly, without decoding it: a BVH over the patches' spheres, the
+// MLS surface of each code word built once and shared by its instances, the hits of overlapping
+// patches blended. Code words without stored normals get PCA normals.
+StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& options,
+                                  RenderStats* stats = nullptr);
 
 // Writes an 8-bit RGB PNG atomically.
 Status write_png(const Image& image, const std::filesystem::path& path);

@@ -1,15 +1,19 @@
-// The uncompressed renderer against an analytic sphere: the silhouette within a pixel, depth
-// within 1% of the radius, every pixel inside the silhouette hit; and the same image on any
-// thread count.
+// The renderers against an analytic sphere: the uncompressed one's silhouette within a pixel,
+// depth within 1% of the radius, every pixel inside the silhouette hit, the same image on any
+// thread count; the compressed model rendered directly agrees with it.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <algorithm>
 #include <numbers>
+#include <vector>
 
 #include "render/camera.hpp"
 #include "sspc/render.hpp"
+#include "sspc/encoder.hpp"
 #include "sspc/synthetic.hpp"
+#include "test_util.hpp"
 
 namespace sspc {
 namespace {
@@ -92,6 +96,40 @@ TEST(Renderer, BadOptionsAreRefused) {
   PointCloud no_normals = scene.cloud;
   no_normals.normals.clear();
   EXPECT_FALSE(render_point_cloud(no_normals, scene.options).ok());
+}
+
+// The compressed model of the sphere, rendered directly, agrees with the uncompressed render:
+// the same pixels hit (up to a few on the silhouette) and the same depth to 2% of the radius.
+TEST(Renderer, CompressedSphereAgreesWithTheUncompressedOne) {
+  SphereScene scene;
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  EncodeOptions encode_options;
+  encode_options.level = 3;
+  ASSERT_TRUE(encode(scene.cloud, path, encode_options).ok());
+  auto model = CompressedModel::open(path);
+  ASSERT_TRUE(model.ok());
+  auto plain = render_point_cloud(scene.cloud, scene.options);
+  RenderStats stats;
+  scene.options.shade = Shade::kCodeword;
+  auto compressed = render_compressed(*model, scene.options, &stats);
+  ASSERT_TRUE(plain.ok() && compressed.ok()) << compressed.status().to_string();
+  int disagree = 0, both = 0;
+  std::vector<float> errors;
+  for (std::size_t i = 0; i < plain->depth.size(); ++i) {
+    const bool a = std::isfinite(plain->depth[i]), b = std::isfinite(compressed->depth[i]);
+    if (a != b) ++disagree;
+    if (a && b) {
+      ++both;
+      errors.push_back(std::abs(plain->depth[i] - compressed->depth[i]));
+    }
+  }
+  ASSERT_GT(both, 1500);
+  EXPECT_LT(disagree, both / 50);
+  std::sort(errors.begin(), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.005f);
+  EXPECT_LT(errors[errors.size() * 95 / 100], 0.02f);
+  EXPECT_GT(stats.hits, 1500u);
 }
 
 }  // namespace

@@ -1,0 +1,173 @@
+// The compressed renderer (paper §5; SPEC step 10): rays traverse a BVH over the patches'
+// bounding spheres; for each sphere a ray meets, the ray goes into the code word's frame
+// (codeword_from_world = Rᵀ(x − c), which keeps t) and meets the MLS surface of the code word's
+// points, built once per code word and shared by all its instances. The hits of overlapping
+// patches on the first surface layer are blended with Gaussian weights on the distance to each
+// patch's centre (σ = patch radius), so there are no seams. The model is read only through the
+// public random-access API.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/parallel.hpp"
+#include "render/camera.hpp"
+#include "render/mls_surface.hpp"
+#include "render/shading.hpp"
+#include "render/sphere_bvh.hpp"
+#include "sspc/normals.hpp"
+#include "sspc/render.hpp"
+
+namespace sspc {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// A code word's points with normals: stored ones, or PCA normals oriented to the code word's +z,
+// the mean normal of its representative (the canonical frame, FORMAT.md).
+StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::size_t c) {
+  SSPC_ASSIGN_OR_RETURN(CodeWordData data, model.codeword(c));
+  PointCloud& cloud = data.points;
+  if (cloud.has_normals()) return std::move(cloud);
+  if (cloud.size() < 3) {
+    cloud.normals.assign(cloud.size(), Vec3f::UnitZ());
+    return std::move(cloud);
+  }
+  NormalOptions options;
+  options.k = static_cast<int>(std::min<std::size_t>(12, cloud.size() - 1));
+  options.k = std::max(options.k, 3);
+  SSPC_RETURN_IF_ERROR(estimate_normals(cloud, options));
+  for (Vec3f& n : cloud.normals) {
+    if (n.z() < 0) n = -n;
+  }
+  return std::move(cloud);
+}
+
+}  // namespace
+
+StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& o, RenderStats* stats) {
+  SSPC_RETURN_IF_ERROR(render::check_options(o));
+  const ModelInfo info = model.info();
+  if (model.patch_count() == 0) return invalid_argument("the model has no patches");
+
+  auto start = std::chrono::steady_clock::now();
+  const std::size_t words = model.codeword_count();
+  std::vector<PointCloud> points(words);
+  std::vector<Status> status(words);
+  parallel_for(0, words, 16, [&](std::size_t c) {
+    auto cloud = codeword_with_normals(model, c);
+    if (!cloud.ok()) {
+      status[c] = cloud.status();
+      return;
+    }
+    points[c] = std::move(cloud).value();
+  });
+  for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+  const auto h = std::max(o.bandwidth * info.spacing, 1e-6f * info.patch_radius);
+  std::vector<std::unique_ptr<render::MlsSurface>> surfaces(words);
+  parallel_for(0, words, 16, [&](std::size_t c) {
+    surfaces[c] = std::make_unique<render::MlsSurface>(points[c].positions, points[c].normals, h);
+  });
+  std::vector<PatchRecord> patches(model.patch_count());
+  std::vector<render::Sphere> spheres(patches.size());
+  for (std::size_t k = 0; k < patches.size(); ++k) {
+    SSPC_ASSIGN_OR_RETURN(patches[k], model.patch(k));
+    float radius = 0;
+    for (const Vec3f& p : points[patches[k].codeword].positions) radius = std::max(radius, p.norm());
+    // The surface reaches 3h beyond the points.
+    spheres[k] = {patches[k].translation, radius + 3 * h};
+  }
+  const render::SphereBvh bvh(spheres);
+  const double build_seconds = seconds_since(start);
+
+  start = std::chrono::steady_clock::now();
+  const render::PinholeCamera camera(o.camera, o.width, o.height);
+  render::Frame frame(o.width, o.height);
+  const float sigma2 = 2.0f * info.patch_radius * info.patch_radius;
+  const float window = 2 * h;  // hits this close to the first belong to the same surface
+  std::atomic<std::uint64_t> hits{0}, evaluations{0};
+  progress_begin(o.progress, "render", static_cast<std::uint64_t>(o.height), "rows");
+  parallel_for_ranges(0, static_cast<std::size_t>(o.height), 4, [&](std::size_t y0, std::size_t y1) {
+    struct Interval {
+      std::uint32_t patch;
+      float t0, t1;
+    };
+    struct Hit {
+      float t;
+      Vec3f normal;
+      std::uint32_t patch;
+    };
+    std::vector<Interval> intervals;
+    std::vector<Hit> found;
+    std::uint64_t local_hits = 0, local_evaluations = 0;
+    for (std::size_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < o.width; ++x) {
+        const Vec3f& eye = camera.eye();
+        const Vec3f d = camera.direction(x, static_cast<int>(y));
+        intervals.clear();
+        bvh.intersect(eye, d, std::numeric_limits<float>::infinity(),
+                      [&](std::uint32_t k, float t0, float t1) { intervals.push_back({k, t0, t1}); });
+        std::sort(intervals.begin(), intervals.end(), [](const Interval& a, const Interval& b) {
+          return a.t0 < b.t0 || (a.t0 == b.t0 && a.patch < b.patch);
+        });
+        found.clear();
+        float best = std::numeric_limits<float>::infinity();
+        for (const Interval& iv : intervals) {
+          if (iv.t0 > best + window) break;
+          const PatchRecord& p = patches[iv.patch];
+          const Eigen::Matrix3f codeword_from_world = p.rotation.transpose();
+          const Vec3f o_local = codeword_from_world * (eye - p.translation);
+          const Vec3f d_local = codeword_from_world * d;
+          const auto hit = surfaces[p.codeword]->intersect(o_local, d_local, iv.t0, std::min(iv.t1, best + window));
+          if (!hit) continue;
+          local_evaluations += static_cast<std::uint64_t>(hit->evaluations);
+          found.push_back({hit->t, p.rotation * hit->normal, iv.patch});
+          best = std::min(best, hit->t);
+        }
+        if (found.empty()) continue;
+        float sum_w = 0, sum_t = 0;
+        Vec3f sum_n = Vec3f::Zero();
+        std::uint32_t heaviest = found.front().patch;
+        float heaviest_w = -1;
+        for (const Hit& f : found) {
+          if (f.t > best + window) continue;
+          const Vec3f xw = eye + f.t * d;
+          const float w = std::exp(-(xw - patches[f.patch].translation).squaredNorm() / sigma2);
+          sum_w += w;
+          sum_t += w * f.t;
+          sum_n += w * f.normal;
+          if (w > heaviest_w) {
+            heaviest_w = w;
+            heaviest = f.patch;
+          }
+        }
+        if (!(sum_w > 0) || !(sum_n.squaredNorm() > 0)) continue;
+        Vec3f n = sum_n.normalized();
+        if (n.dot(d) > 0) n = -n;
+        frame.set(x, static_cast<int>(y), sum_t / sum_w, n, patches[heaviest].codeword);
+        ++local_hits;
+      }
+    }
+    hits += local_hits;
+    evaluations += local_evaluations;
+    progress_advance(o.progress, y1 - y0);
+  });
+  progress_end(o.progress);
+  Image image = frame.shade(o.shade, camera);
+  if (stats != nullptr) {
+    stats->build_seconds = build_seconds;
+    stats->render_seconds = seconds_since(start);
+    stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
+    stats->hits = hits;
+    stats->evaluations = evaluations;
+    stats->scene_bytes = bvh.memory_bytes() + patches.size() * sizeof(PatchRecord);
+    for (const PointCloud& c : points) stats->scene_bytes += c.size() * 2 * sizeof(Vec3f);
+  }
+  return image;
+}
+
+}  // namespace sspc

@@ -1,0 +1,100 @@
+#include "render/shading.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sspc::render {
+
+namespace {
+
+std::uint8_t to_byte(float v) {
+  return static_cast<std::uint8_t>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f);
+}
+
+// A well-spread colour per code word (the paper's Figure 6): a hash of the index into a hue,
+// saturated and bright enough to tell neighbours apart.
+Vec3f id_colour(std::uint32_t id) {
+  std::uint32_t v = id * 0x9E3779B1u;
+  v ^= v >> 15;
+  v *= 0x85EBCA77u;
+  v ^= v >> 13;
+  const float hue = static_cast<float>(v & 0xFFFFu) / 65536.0f * 6.0f;
+  const float f = hue - std::floor(hue);
+  const float s = 0.55f + 0.35f * static_cast<float>((v >> 16) & 0xFFu) / 255.0f;
+  const float lo = 1 - s, mid_up = 1 - s * (1 - f), mid_down = 1 - s * f;
+  switch (static_cast<int>(hue)) {
+    case 0: return {1, mid_up, lo};
+    case 1: return {mid_down, 1, lo};
+    case 2: return {lo, 1, mid_up};
+    case 3: return {lo, mid_down, 1};
+    case 4: return {mid_up, lo, 1};
+    default: return {1, lo, mid_down};
+  }
+}
+
+}  // namespace
+
+Status check_options(const RenderOptions& o) {
+  if (o.width < 1 || o.height < 1 || o.width > 16384 || o.height > 16384) {
+    return invalid_argument("image size must be 1..16384 pixels per side");
+  }
+  if (!(o.camera.fov_degrees > 0.1f && o.camera.fov_degrees < 179.0f)) {
+    return invalid_argument("field of view must be in (0.1, 179) degrees");
+  }
+  if (!(o.bandwidth > 0.1f && o.bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
+  const Vec3f forward = o.camera.target - o.camera.eye;
+  if (!o.camera.eye.allFinite() || !o.camera.target.allFinite() || !o.camera.up.allFinite() ||
+      !(forward.norm() > 0) || !(forward.normalized().cross(o.camera.up).norm() > 1e-6f)) {
+    return invalid_argument("the camera needs distinct eye and target and an up vector not along the view");
+  }
+  return Status();
+}
+
+Frame::Frame(int width, int height)
+    : width_(width),
+      height_(height),
+      depth_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), std::numeric_limits<float>::infinity()),
+      normal_(depth_.size(), Vec3f::Zero()),
+      id_(depth_.size(), 0) {}
+
+void Frame::set(int x, int y, float t, const Vec3f& normal, std::uint32_t id) {
+  const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x);
+  depth_[i] = t;
+  normal_[i] = normal;
+  id_[i] = id;
+}
+
+Image Frame::shade(Shade mode, const PinholeCamera& camera) const {
+  Image image;
+  image.width = width_;
+  image.height = height_;
+  image.depth = depth_;
+  image.rgb.assign(depth_.size() * 3, 0);
+  float near = std::numeric_limits<float>::infinity(), far = 0;
+  for (float t : depth_) {
+    if (std::isfinite(t)) {
+      near = std::min(near, t);
+      far = std::max(far, t);
+    }
+  }
+  for (std::size_t i = 0; i < depth_.size(); ++i) {
+    if (!std::isfinite(depth_[i])) continue;
+    const Vec3f& n = normal_[i];
+    const int x = static_cast<int>(i % static_cast<std::size_t>(width_));
+    const int y = static_cast<int>(i / static_cast<std::size_t>(width_));
+    // A headlight: the light at the eye, so every visible surface is lit.
+    const float lambert = 0.15f + 0.85f * std::abs(n.dot(camera.direction(x, y)));
+    Vec3f c = Vec3f::Zero();
+    switch (mode) {
+      case Shade::kLambert: c = Vec3f::Constant(lambert); break;
+      case Shade::kNormal: c = 0.5f * (n + Vec3f::Ones()); break;
+      case Shade::kDepth: c = Vec3f::Constant(1.0f - 0.8f * (far > near ? (depth_[i] - near) / (far - near) : 0.0f)); break;
+      case Shade::kCodeword: c = lambert * id_colour(id_[i]); break;
+    }
+    for (int a = 0; a < 3; ++a) image.rgb[3 * i + static_cast<std::size_t>(a)] = to_byte(c[a]);
+  }
+  return image;
+}
+
+}  // namespace sspc::render
