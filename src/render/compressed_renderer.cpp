@@ -74,12 +74,16 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   });
   std::vector<PatchRecord> patches(model.patch_count());
   std::vector<render::Sphere> spheres(patches.size());
+  // A patch shows its code word only near its own region: the match that placed it checked the
+  // code word against the patch within the coverage radius of the centre, and beyond it the
+  // code word holds points kept for its other instances, which need not fit this one. Every
+  // surface point is within the coverage radius of some centre, so the patches still cover it.
+  const float extent = info.coverage_radius + 2 * h;
   for (std::size_t k = 0; k < patches.size(); ++k) {
     SSPC_ASSIGN_OR_RETURN(patches[k], model.patch(k));
     float radius = 0;
     for (const Vec3f& p : points[patches[k].codeword].positions) radius = std::max(radius, p.norm());
-    // The surface reaches 3h beyond the points.
-    spheres[k] = {patches[k].translation, radius + 3 * h};
+    spheres[k] = {patches[k].translation, std::min(radius + 3 * h, extent)};
   }
   const render::SphereBvh bvh(spheres);
   const double build_seconds = seconds_since(start);
