@@ -6,7 +6,6 @@
 // patch's centre (σ = patch radius), so there are no seams. The model is read only through the
 // public random-access API.
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -88,30 +87,25 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   const render::SphereBvh bvh(spheres);
   const double build_seconds = seconds_since(start);
 
-  start = std::chrono::steady_clock::now();
   const render::PinholeCamera camera(o.camera, o.width, o.height);
-  render::Frame frame(o.width, o.height);
   const float sigma2 = 2.0f * info.patch_radius * info.patch_radius;
   const float window = 2 * h;  // hits this close to the first belong to the same surface
-  std::atomic<std::uint64_t> hits{0}, evaluations{0};
-  progress_begin(o.progress, "render", static_cast<std::uint64_t>(o.height), "rows");
-  parallel_for_ranges(0, static_cast<std::size_t>(o.height), 4, [&](std::size_t y0, std::size_t y1) {
-    struct Interval {
-      std::uint32_t patch;
-      float t0, t1;
-    };
-    struct Hit {
-      float t;
-      Vec3f normal;
-      std::uint32_t patch;
-    };
-    std::vector<Interval> intervals;
-    std::vector<Hit> found;
-    std::uint64_t local_hits = 0, local_evaluations = 0;
-    for (std::size_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < o.width; ++x) {
+  struct Interval {
+    std::uint32_t patch;
+    float t0, t1;
+  };
+  struct Hit {
+    float t;
+    Vec3f normal;
+    std::uint32_t patch;
+  };
+  Image image = render::trace_image(
+      o, camera,
+      [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
+        thread_local std::vector<Interval> intervals;
+        thread_local std::vector<Hit> found;
         const Vec3f& eye = camera.eye();
-        const Vec3f d = camera.direction(x, static_cast<int>(y));
+        const Vec3f d = camera.direction(x, y);
         intervals.clear();
         bvh.intersect(eye, d, std::numeric_limits<float>::infinity(),
                       [&](std::uint32_t k, float t0, float t1) { intervals.push_back({k, t0, t1}); });
@@ -128,11 +122,11 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
           const Vec3f d_local = codeword_from_world * d;
           const auto hit = surfaces[p.codeword]->intersect(o_local, d_local, iv.t0, std::min(iv.t1, best + window));
           if (!hit) continue;
-          local_evaluations += static_cast<std::uint64_t>(hit->evaluations);
+          evaluations += static_cast<std::uint64_t>(hit->evaluations);
           found.push_back({hit->t, p.rotation * hit->normal, iv.patch});
           best = std::min(best, hit->t);
         }
-        if (found.empty()) continue;
+        if (found.empty()) return false;
         float sum_w = 0, sum_t = 0;
         Vec3f sum_n = Vec3f::Zero();
         std::uint32_t heaviest = found.front().patch;
@@ -149,25 +143,15 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
             heaviest = f.patch;
           }
         }
-        if (!(sum_w > 0) || !(sum_n.squaredNorm() > 0)) continue;
+        if (!(sum_w > 0) || !(sum_n.squaredNorm() > 0)) return false;
         Vec3f n = sum_n.normalized();
         if (n.dot(d) > 0) n = -n;
-        frame.set(x, static_cast<int>(y), sum_t / sum_w, n, patches[heaviest].codeword);
-        ++local_hits;
-      }
-    }
-    hits += local_hits;
-    evaluations += local_evaluations;
-    progress_advance(o.progress, y1 - y0);
-  });
-  progress_end(o.progress);
-  Image image = frame.shade(o.shade, camera);
+        frame.set(x, y, sum_t / sum_w, n, patches[heaviest].codeword);
+        return true;
+      },
+      stats);
   if (stats != nullptr) {
     stats->build_seconds = build_seconds;
-    stats->render_seconds = seconds_since(start);
-    stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
-    stats->hits = hits;
-    stats->evaluations = evaluations;
     stats->scene_bytes = bvh.memory_bytes() + patches.size() * sizeof(PatchRecord);
     for (const PointCloud& c : points) stats->scene_bytes += c.size() * 2 * sizeof(Vec3f);
   }

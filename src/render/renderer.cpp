@@ -1,7 +1,6 @@
 // The uncompressed renderer: one MLS surface over the whole cloud, primary rays from a pinhole
 // camera, parallel over image rows (each pixel written by one task: deterministic).
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -66,38 +65,22 @@ StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions&
   box.extend(box.max() + Vec3f::Constant(3 * h));
   const double build_seconds = seconds_since(start);
 
-  start = std::chrono::steady_clock::now();
   const render::PinholeCamera camera(o.camera, o.width, o.height);
-  render::Frame frame(o.width, o.height);
-  std::atomic<std::uint64_t> hits{0}, evaluations{0};
-  progress_begin(o.progress, "render", static_cast<std::uint64_t>(o.height), "rows");
-  parallel_for_ranges(0, static_cast<std::size_t>(o.height), 4, [&](std::size_t y0, std::size_t y1) {
-    std::uint64_t local_hits = 0, local_evaluations = 0;
-    for (std::size_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < o.width; ++x) {
-        const Vec3f d = camera.direction(x, static_cast<int>(y));
+  Image image = render::trace_image(
+      o, camera,
+      [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
+        const Vec3f d = camera.direction(x, y);
         float t0 = 0, t1 = 0;
-        if (!clip_to_box(camera.eye(), d, box, t0, t1)) continue;
+        if (!clip_to_box(camera.eye(), d, box, t0, t1)) return false;
         const auto hit = surface.intersect(camera.eye(), d, t0, t1);
-        if (!hit) continue;
-        frame.set(x, static_cast<int>(y), hit->t, hit->normal, 0);
-        ++local_hits;
-        local_evaluations += static_cast<std::uint64_t>(hit->evaluations);
-      }
-    }
-    hits += local_hits;
-    evaluations += local_evaluations;
-    progress_advance(o.progress, y1 - y0);
-  });
-  progress_end(o.progress);
-
-  Image image = frame.shade(o.shade, camera);
+        if (!hit) return false;
+        evaluations += static_cast<std::uint64_t>(hit->evaluations);
+        frame.set(x, y, hit->t, hit->normal, 0);
+        return true;
+      },
+      stats);
   if (stats != nullptr) {
     stats->build_seconds = build_seconds;
-    stats->render_seconds = seconds_since(start);
-    stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
-    stats->hits = hits;
-    stats->evaluations = evaluations;
     stats->scene_bytes = cloud.size() * 2 * sizeof(Vec3f);
   }
   return image;

@@ -2,9 +2,12 @@
 // compressed renderer so their images compare pixel for pixel.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <vector>
 
+#include "core/parallel.hpp"
 #include "render/camera.hpp"
 #include "sspc/render.hpp"
 
@@ -26,5 +29,36 @@ class Frame {
   std::vector<Vec3f> normal_;
   std::vector<std::uint32_t> id_;
 };
+
+// Traces every pixel, rows in parallel, with trace(x, y, frame, evaluations) → whether it hit
+// (it may set the pixel in `frame` and add its MLS evaluations), then shades the frame. Fills
+// the tracing half of `stats` (rays, hits, evaluations, render seconds) when given.
+template <typename Trace>
+Image trace_image(const RenderOptions& o, const PinholeCamera& camera, Trace&& trace, RenderStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  Frame frame(o.width, o.height);
+  std::atomic<std::uint64_t> hits{0}, evaluations{0};
+  progress_begin(o.progress, "render", static_cast<std::uint64_t>(o.height), "rows");
+  parallel_for_ranges(0, static_cast<std::size_t>(o.height), 4, [&](std::size_t y0, std::size_t y1) {
+    std::uint64_t local_hits = 0, local_evaluations = 0;
+    for (std::size_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < o.width; ++x) {
+        if (trace(x, static_cast<int>(y), frame, local_evaluations)) ++local_hits;
+      }
+    }
+    hits += local_hits;
+    evaluations += local_evaluations;
+    progress_advance(o.progress, y1 - y0);
+  });
+  progress_end(o.progress);
+  Image image = frame.shade(o.shade, camera);
+  if (stats != nullptr) {
+    stats->render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
+    stats->hits = hits;
+    stats->evaluations = evaluations;
+  }
+  return image;
+}
 
 }  // namespace sspc::render
