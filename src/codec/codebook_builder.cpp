@@ -395,7 +395,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       }
       sp.matches.assign(sp.candidates.size(), Match{});
       if (sp.candidates.empty()) return;
-      const CodewordSurface surface(sp.codeword.points, sp.codeword.normals, 1.5f * o.spacing);
+      const CodewordSurface surface(sp.codeword.points, sp.codeword.normals);
       const RigidTransform codeword_from_rep_canonical =
           sp.world_from_codeword.inverse() * frames.world_from_canonical[rep];
       for (std::size_t c = 0; c < sp.candidates.size(); ++c) {

@@ -94,9 +94,9 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.codewords = model.codebook.size();
   stats.codebook_ratio = stats.codewords > 0 ? static_cast<double>(stats.patches) / static_cast<double>(stats.codewords) : 0.0;
   stats.untrimmed_codeword_points = build_stats.codebook.codeword_points;
-  stats.codeword_points = options.full_spheres ? stats.untrimmed_codeword_points : written.codeword_points;
+  stats.codeword_points = written.codeword_points;
   stats.position_bits = quant.position_bits;
-  stats.position_step = codec::position_step(static_cast<float>(build_stats.patch_radius), quant.position_bits);
+  stats.position_step = step;
   stats.spacing = build_stats.spacing;
   stats.patch_radius = build_stats.patch_radius;
   stats.coverage_radius = build_stats.coverage_radius;

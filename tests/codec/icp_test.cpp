@@ -39,7 +39,7 @@ RigidTransform small_motion() {
 
 TEST(Icp, RecoversAKnownMotionOfACurvedPatch) {
   const Patch target = height_field(1.0f, 0.05f);
-  const CodewordSurface surface(target.points, target.normals, 0.075f);
+  const CodewordSurface surface(target.points, target.normals);
   const RigidTransform source_from_target = small_motion();
   std::vector<Vec3f> source;
   for (const Vec3f& p : target.points) source.push_back(source_from_target.apply(p));
