@@ -2,7 +2,6 @@
 #include "codec/codebook_builder.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <memory>
 #include <numeric>

@@ -14,9 +14,10 @@
 namespace sspc::codec {
 
 // Code words hold the points within patch_radius of a centre; centres cover every point within
-// coverage_radius = patch_radius / kPatchOverCoverage. The margin absorbs the small drift of a
-// matched patch's origin (≤ 0.2 coverage radii, checked) so that the decoder's Voronoi regions
-// stay covered.
+// coverage_radius = patch_radius / kPatchOverCoverage (after matching, the coverage repair in
+// codebook_builder restores that for the instances' final origins). The margin lets a code word
+// reach past the region of an instance whose origin a match moved (up to half a coverage
+// radius), and the writer trims what no instance decodes.
 inline constexpr float kPatchOverCoverage = 1.25f;
 
 struct BuildOptions {
