@@ -18,3 +18,8 @@ if(SSPC_SANITIZE)
     -fsanitize=${SSPC_SANITIZE} -fno-omit-frame-pointer -fno-sanitize-recover=all)
   target_link_options(sspc_compile_options INTERFACE -fsanitize=${SSPC_SANITIZE})
 endif()
+# The fuzz build instruments everything for libFuzzer's coverage feedback; the fuzzer executables
+# add -fsanitize=fuzzer themselves (fuzz/CMakeLists.txt).
+if(SSPC_BUILD_FUZZ)
+  target_compile_options(sspc_compile_options INTERFACE -fsanitize=fuzzer-no-link)
+endif()
