@@ -96,7 +96,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.untrimmed_codeword_points = build_stats.codebook.codeword_points;
   stats.codeword_points = written.codeword_points;
   stats.position_bits = quant.position_bits;
-  stats.position_step = step;
+  stats.position_step = static_cast<double>(step);
   stats.spacing = build_stats.spacing;
   stats.patch_radius = build_stats.patch_radius;
   stats.coverage_radius = build_stats.coverage_radius;
