@@ -10,9 +10,12 @@
 #include <vector>
 
 #include "command.hpp"
+#include "core/atomic_file.hpp"
 
 int main(int argc, char** argv) {
   using namespace sspc::cli;
+  // Ctrl-C or a full disk leaves the old output and no temporary file (core/atomic_file.hpp).
+  sspc::remove_temporary_files_on_signals();
   CLI::App app("sspc: self-similarity compression and ray tracing of scanned point clouds");
   app.set_version_flag("--version", std::string("sspc ") + SSPC_VERSION);
   app.require_subcommand(1);

@@ -1,6 +1,8 @@
 #include "core/atomic_file.hpp"
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <vector>
@@ -13,7 +15,57 @@ namespace sspc {
 
 namespace {
 std::string errno_text() { return std::strerror(errno); }
+
+// The temporary files being written, for the signal handler: fixed storage and atomic flags,
+// because a handler may only call async-signal-safe functions (unlink) and read lock-free data.
+// A writer whose path does not fit, or that finds every slot taken, is simply not registered.
+constexpr int kTempSlots = 64;
+constexpr std::size_t kTempPathMax = 4096;
+struct TempSlot {
+  std::atomic<bool> taken{false};  // owned by a writer
+  std::atomic<bool> live{false};   // path is complete and the file may exist
+  char path[kTempPathMax];
+};
+TempSlot g_temp_slots[kTempSlots];
+
+int register_temporary(const std::filesystem::path& path) {
+  const std::string& s = path.native();
+  if (s.size() >= kTempPathMax) return -1;
+  for (int i = 0; i < kTempSlots; ++i) {
+    TempSlot& slot = g_temp_slots[i];
+    bool expected = false;
+    if (!slot.taken.compare_exchange_strong(expected, true)) continue;
+    std::memcpy(slot.path, s.c_str(), s.size() + 1);
+    slot.live.store(true, std::memory_order_release);
+    return i;
+  }
+  return -1;
+}
+
+void unregister_temporary(int i) {
+  if (i < 0) return;
+  g_temp_slots[i].live.store(false, std::memory_order_release);
+  g_temp_slots[i].taken.store(false, std::memory_order_release);
+}
+
+extern "C" void remove_temporaries_and_reraise(int sig) {
+  for (TempSlot& slot : g_temp_slots) {
+    if (slot.live.load(std::memory_order_acquire)) unlink(slot.path);
+  }
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
 }  // namespace
+
+void remove_temporary_files_on_signals() {
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    struct sigaction action {};
+    action.sa_handler = remove_temporaries_and_reraise;
+    sigemptyset(&action.sa_mask);
+    sigaction(sig, &action, nullptr);
+  }
+  std::signal(SIGXFSZ, SIG_IGN);
+}
 
 AtomicFileWriter::~AtomicFileWriter() { abandon(); }
 
@@ -31,11 +83,14 @@ Status AtomicFileWriter::open(const std::filesystem::path& target) {
                     ": " + errno_text());
   }
   temp_ = name.data();
+  slot_ = register_temporary(temp_);
   file_ = fdopen(fd, "wb");
   if (file_ == nullptr) {
     close(fd);
     std::filesystem::remove(temp_);
     temp_.clear();
+    unregister_temporary(slot_);
+    slot_ = -1;
     return io_error(target.string() + ": " + errno_text());
   }
   return Status();
@@ -79,6 +134,8 @@ Status AtomicFileWriter::commit() {
     return io_error(target_.string() + ": cannot rename the temporary file: " + ec.message());
   }
   temp_.clear();
+  unregister_temporary(slot_);
+  slot_ = -1;
   return Status();
 }
 
@@ -92,6 +149,8 @@ void AtomicFileWriter::abandon() {
     std::filesystem::remove(temp_, ec);
     temp_.clear();
   }
+  unregister_temporary(slot_);
+  slot_ = -1;
 }
 
 Status write_file_atomically(const std::filesystem::path& target, std::span<const std::byte> bytes) {

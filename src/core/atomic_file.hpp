@@ -3,7 +3,10 @@
 // The data goes to a temporary file beside the target (same directory, so the rename stays on
 // one file system), is flushed, and is renamed over the target by commit(). If commit() is not
 // reached (an error, an exception, a crash) the temporary file is removed and the target is
-// untouched.
+// untouched. A process killed by a signal runs no destructors; a program that calls
+// remove_temporary_files_on_signals() (the sspc CLI does) has its temporary files removed on
+// SIGINT, SIGTERM and SIGHUP too, and sees an exceeded file-size limit (SIGXFSZ) as a failed
+// write instead of dying of it.
 #pragma once
 
 #include <cstddef>
@@ -38,7 +41,13 @@ class AtomicFileWriter {
   std::filesystem::path target_;
   std::filesystem::path temp_;
   std::FILE* file_ = nullptr;
+  int slot_ = -1;  // in the table of temporary files a signal handler removes
 };
+
+// Installs handlers for SIGINT, SIGTERM and SIGHUP that remove the open writers' temporary files
+// and then end the process as the signal would have; ignores SIGXFSZ, so that writing past a
+// file-size limit fails with EFBIG (and the writer cleans up) instead of killing the process.
+void remove_temporary_files_on_signals();
 
 // Convenience: the whole of `bytes` written atomically to `target`.
 Status write_file_atomically(const std::filesystem::path& target, std::span<const std::byte> bytes);

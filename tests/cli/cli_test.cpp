@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "sspc/io.hpp"
 #include "sspc/synthetic.hpp"
@@ -26,11 +27,12 @@ std::string slurp(const std::filesystem::path& p) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// Runs `sspc ARGS` with stdout and stderr captured to files in `dir`.
-CliRun sspc(const test::TempDir& dir, const std::string& args) {
+// Runs `sspc ARGS` with stdout and stderr captured to files in `dir`; `shell_prefix` goes in
+// front of the command line (a `ulimit`, a `timeout`).
+CliRun sspc(const test::TempDir& dir, const std::string& args, const std::string& shell_prefix = "") {
   const auto out = dir.path() / "stdout.txt";
   const auto err = dir.path() / "stderr.txt";
-  const std::string command = std::string(SSPC_CLI_PATH) + " " + args + " >" + out.string() +
+  const std::string command = shell_prefix + std::string(SSPC_CLI_PATH) + " " + args + " >" + out.string() +
                               " 2>" + err.string() + " </dev/null";
   const int status = std::system(command.c_str());
   CliRun run;
@@ -173,6 +175,84 @@ TEST(Cli, EncodeDecodeRoundTrip) {
   EXPECT_EQ(sspc(dir, "encode " + one + " " + one + " -f").exit_code, 1);
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one).exit_code, 1);  // exists, no --force
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one + " --level 10").exit_code, 2);
+}
+
+// encode never overwrites its input, not even with --force or through a hard link, and an
+// existing output only with --force; decode likewise refuses to write over its input.
+TEST(Cli, EncodeRefusesToOverwriteItsInputOrAnExistingOutput) {
+  test::TempDir dir;
+  const auto input = dir.path() / "in.ply";
+  std::filesystem::copy_file(bunny(), input);
+  const std::string original = slurp(input);
+  const auto link = dir.path() / "link.ply";
+  std::filesystem::create_hard_link(input, link);
+  for (const auto& out : {input, link}) {
+    const CliRun run = sspc(dir, "encode " + input.string() + " " + out.string() + " --force");
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_NE(run.err.find("is the input"), std::string::npos) << run.err;
+  }
+  EXPECT_EQ(slurp(input), original);
+
+  const auto out = dir.path() / "out.sspc";
+  { std::ofstream(out) << "keep me"; }
+  const CliRun exists = sspc(dir, "encode " + input.string() + " " + out.string() + " --level 9");
+  EXPECT_EQ(exists.exit_code, 1);
+  EXPECT_NE(exists.err.find("--force"), std::string::npos) << exists.err;
+  EXPECT_EQ(slurp(out), "keep me");
+  ASSERT_EQ(sspc(dir, "encode " + input.string() + " " + out.string() + " --level 9 -f").exit_code, 0);
+  EXPECT_EQ(slurp(out).substr(1, 3), "SPC");
+  EXPECT_EQ(sspc(dir, "decode " + out.string() + " " + out.string() + " -f").exit_code, 1);
+  EXPECT_EQ(slurp(out).substr(1, 3), "SPC");
+}
+
+// Runs `sspc ARGS` under a file-size limit of about 8 KB: the shell's `ulimit -f` stands in
+// for a full disk.
+CliRun sspc_with_small_disk(const test::TempDir& dir, const std::string& args) {
+  return sspc(dir, args, "ulimit -f 16; ");
+}
+
+// Every command that writes a file, on a full disk: exit 1 with a message, the old output
+// intact, no temporary file beside it.
+TEST(Cli, AFullDiskLeavesTheOldOutputAndNoTemporary) {
+  test::TempDir dir;
+  const auto model = dir.path() / "model.sspc";
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model.string() + " --level 9").exit_code, 0);
+  ASSERT_GT(std::filesystem::file_size(model), 8192u);
+  const auto out_dir = dir.path() / "out";
+  std::filesystem::create_directory(out_dir);
+  const auto out = out_dir / "old";
+  const std::vector<std::string> commands = {
+      "encode " + bunny() + " " + out.string() + " --level 9 -f",
+      "decode " + model.string() + " " + out.string() + " -f",
+      "normals " + bunny() + " " + out.string() + " -f",
+  };
+  for (const std::string& command : commands) {
+    { std::ofstream(out) << "keep me"; }
+    const CliRun run = sspc_with_small_disk(dir, command);
+    EXPECT_EQ(run.exit_code, 1) << command << ": " << run.err;
+    EXPECT_NE(run.err.find(out.string()), std::string::npos) << command << ": " << run.err;
+    EXPECT_EQ(slurp(out), "keep me") << command;
+    EXPECT_EQ(test::count_files(out_dir), 1u) << command;
+  }
+}
+
+// Ctrl-C in the middle of a command: the output is the old file or the complete new one, and
+// no temporary file is left.
+TEST(Cli, AnInterruptLeavesTheOldOutputOrTheNewOneAndNoTemporary) {
+  test::TempDir dir;
+  const auto out_dir = dir.path() / "out";
+  std::filesystem::create_directory(out_dir);
+  const auto reference = dir.path() / "reference.ply";
+  ASSERT_EQ(sspc(dir, "normals " + bunny() + " " + reference.string()).exit_code, 0);
+  const auto out = out_dir / "normals.ply";
+  for (const char* delay : {"0.05", "0.2", "0.5"}) {
+    { std::ofstream(out) << "keep me"; }
+    sspc(dir, "normals " + bunny() + " " + out.string() + " -f",
+         "timeout -s INT " + std::string(delay) + " ");
+    const std::string now = slurp(out);
+    EXPECT_TRUE(now == "keep me" || now == slurp(reference)) << "after " << delay << " s";
+    EXPECT_EQ(test::count_files(out_dir), 1u) << "after " << delay << " s";
+  }
 }
 
 // render writes a PNG of the bunny, the same bytes on 1 and 2 threads, and of its compressed

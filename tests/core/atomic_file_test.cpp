@@ -2,11 +2,19 @@
 #include "core/mapped_file.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
+#include "sspc/encoder.hpp"
+#include "sspc/io.hpp"
+#include "sspc/synthetic.hpp"
 #include "test_util.hpp"
 
 namespace sspc {
@@ -48,6 +56,85 @@ TEST(AtomicFile, MissingDirectoryIsAnError) {
   AtomicFileWriter w;
   Status s = w.open(dir.path() / "no" / "such" / "dir" / "f.bin");
   EXPECT_EQ(s.code(), StatusCode::kIoError);
+}
+
+// A full disk, simulated with a file-size limit (RLIMIT_FSIZE, no root needed): writes past it
+// fail with EFBIG once SIGXFSZ is ignored, as remove_temporary_files_on_signals() does.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    getrlimit(RLIMIT_FSIZE, &old_);
+    old_handler_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = old_;
+    limit.rlim_cur = bytes;
+    EXPECT_EQ(setrlimit(RLIMIT_FSIZE, &limit), 0);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &old_);
+    std::signal(SIGXFSZ, old_handler_);
+  }
+  FileSizeLimit(const FileSizeLimit&) = delete;
+  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+
+ private:
+  rlimit old_{};
+  void (*old_handler_)(int) = nullptr;
+};
+
+// Every writer (raw bytes, PLY, .sspc) on a full disk: an I/O error, the old file as it was,
+// no temporary file left.
+TEST(AtomicFile, AFullDiskLeavesTheOldFileAndNoTemporary) {
+  test::TempDir dir;
+  const auto target = dir.path() / "out";
+  { std::ofstream(target) << "old"; }
+  const PointCloud cloud = synthetic::sphere(3000, 1.0);
+  // What the encoder writes without a limit, to choose a limit it exceeds.
+  EncodeOptions options;
+  options.level = 9;
+  options.store_normals = true;
+  options.full_spheres = true;
+  const auto unlimited = dir.path() / "unlimited.sspc";
+  auto stats = encode(cloud, unlimited, options);
+  ASSERT_TRUE(stats.ok()) << stats.status().to_string();
+  ASSERT_GT(stats->file_bytes, 2048u);
+  std::filesystem::remove(unlimited);
+
+  const FileSizeLimit limit(1024);
+  const std::vector<std::byte> big(1 << 20, std::byte{7});
+  const Status raw = write_file_atomically(target, big);
+  EXPECT_EQ(raw.code(), StatusCode::kIoError) << raw.to_string();
+  const Status ply = write_ply(cloud, target);
+  EXPECT_EQ(ply.code(), StatusCode::kIoError) << ply.to_string();
+  const auto encoded = encode(cloud, target, options);
+  ASSERT_FALSE(encoded.ok());
+  EXPECT_EQ(encoded.status().code(), StatusCode::kIoError) << encoded.status().to_string();
+  EXPECT_EQ(slurp(target), "old");
+  EXPECT_EQ(test::count_files(dir.path()), 1u);
+}
+
+// A process killed by SIGTERM or SIGINT in the middle of a write: the old file stays, and the
+// handler remove_temporary_files_on_signals() installs removes the temporary file.
+TEST(AtomicFile, ASignalLeavesTheOldFileAndNoTemporary) {
+  for (const int sig : {SIGTERM, SIGINT}) {
+    test::TempDir dir;
+    const auto target = dir.path() / "out";
+    { std::ofstream(target) << "old"; }
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      remove_temporary_files_on_signals();
+      AtomicFileWriter w;
+      if (!w.open(target).ok() || !w.write("half of the new").ok()) _exit(3);
+      raise(sig);
+      _exit(4);  // not reached
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status)) << status;
+    EXPECT_EQ(WTERMSIG(status), sig);
+    EXPECT_EQ(slurp(target), "old");
+    EXPECT_EQ(test::count_files(dir.path()), 1u);
+  }
 }
 
 TEST(MappedFile, MapsBytesAndReportsMissingFiles) {
