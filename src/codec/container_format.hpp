@@ -32,6 +32,12 @@ inline constexpr std::size_t kPatchSeekEntrySize = 56;
 
 // A reader must be able to bound one block's memory whatever the file says.
 inline constexpr std::uint32_t kMaxRawBlockSize = 1u << 26;
+// And by the bytes the file really holds: a zstd-compressed block's raw size is at most this
+// many times its stored size. Honest blocks expand 1-3x (bunny, levels 0-9, with and without
+// normals), but zstd turns a few KB of runs into 64 MiB, which a hostile seek table could claim
+// and whose points (kMaxPointsPerByte) the reader would allocate. A writer whose frame would
+// expand more stores the block raw.
+inline constexpr std::uint32_t kMaxBlockExpansion = 64;
 // |v| < 2^24 keeps float(v) exact for translation grid values.
 inline constexpr std::int64_t kMaxTranslationGrid = (std::int64_t{1} << 24) - 1;
 

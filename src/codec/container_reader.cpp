@@ -214,6 +214,11 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
         return fail(at + 8, what + ": bad sizes (stored " + std::to_string(x.stored_size) +
                                 ", raw " + std::to_string(x.raw_size) + ")");
       }
+      if (x.raw_size > std::uint64_t{x.stored_size} * kMaxBlockExpansion) {
+        return fail(at + 8, what + ": " + std::to_string(x.stored_size) +
+                                " stored bytes cannot expand to " + std::to_string(x.raw_size) +
+                                " (at most " + std::to_string(kMaxBlockExpansion) + "x)");
+      }
       if (x.stored_size > data.size - next) {
         return fail(at + 8, what + " runs past the end of its section");
       }

@@ -53,7 +53,8 @@ struct BuiltBlock {
 };
 
 // zstd without the frame fields the seek table already carries (size, checksum, dictionary),
-// or the raw payload when zstd does not shrink it.
+// or the raw payload when zstd does not shrink it or would shrink it more than a reader accepts
+// (kMaxBlockExpansion).
 Status compress_block(const std::string& raw, int level, BuiltBlock& block) {
   if (raw.size() > kMaxRawBlockSize) {
     return invalid_argument("a block's payload of " + std::to_string(raw.size()) +
@@ -70,7 +71,7 @@ Status compress_block(const std::string& raw, int level, BuiltBlock& block) {
       ZSTD_compress2(ctx, compressed.data(), compressed.size(), raw.data(), raw.size());
   ZSTD_freeCCtx(ctx);
   if (ZSTD_isError(n)) return internal_error(std::string("zstd: ") + ZSTD_getErrorName(n));
-  if (n < raw.size()) {
+  if (n < raw.size() && raw.size() <= n * kMaxBlockExpansion) {
     compressed.resize(n);
     block.stored = std::move(compressed);
   } else {

@@ -18,8 +18,13 @@
 #include <new>
 #include <string>
 
+#include <zstd.h>
+
+#include "codec/block_codec.hpp"
 #include "codec/checksum.hpp"
 #include "codec/container_format.hpp"
+#include "codec/container_test_models.hpp"
+#include "codec/container_writer.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/io.hpp"
 #include "test_util.hpp"
@@ -159,6 +164,99 @@ TEST(AllocationLimit, SspcCounts) {
     EXPECT_LT(g_largest_allocation.load(), kAllowedBytes);
     EXPECT_LT(peak_rss_kib() - rss_before, 16 * 1024);
   }
+}
+
+void store_le(std::string& s, std::size_t at, std::uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i) {
+    s[at + static_cast<std::size_t>(i)] = static_cast<char>((v >> (8 * i)) & 0xFF);
+  }
+}
+std::uint64_t load_le(const std::string& s, std::size_t at, int bytes) {
+  std::uint64_t v = 0;
+  for (int i = bytes - 1; i >= 0; --i) {
+    v = (v << 8) | static_cast<std::uint8_t>(s[at + static_cast<std::size_t>(i)]);
+  }
+  return v;
+}
+
+// A decompression bomb with valid CRCs: the code-book block replaced by a zstd frame of a few
+// hundred bytes that expands to 8 MiB, a payload that holds, by the format's 64 points per
+// byte, 2^29 points (15 GB once decoded). The reader refuses the seek entry, whose raw size is
+// more than kMaxBlockExpansion times its stored size, before it allocates anything.
+TEST(AllocationLimit, SspcZstdBomb) {
+  test::ModelShape shape;
+  shape.side = 8;
+  shape.normals = false;
+  shape.colors = false;
+  codec::QuantOptions options;
+  options.codewords_per_block = 1024;  // one code-book block
+  auto encoded = codec::encode_container(test::make_plane_model(shape), options);
+  ASSERT_TRUE(encoded.ok()) << encoded.status().to_string();
+  const std::string& file = *encoded;
+  const auto section = [&](std::size_t i, std::size_t field) {
+    return load_le(file, codec::kSectionTableOffset + i * codec::kSectionEntrySize + field, 8);
+  };
+  const std::uint64_t codewords = load_le(file, 72, 4);
+  ASSERT_EQ(section(1, 16), codec::kCodebookSeekEntrySize);  // one block
+
+  // The payload: all points in the first code word, then the position stream of zeros.
+  const std::size_t stream = std::size_t{8} << 20;
+  std::string raw;
+  const auto varint = [&raw](std::uint64_t v) {
+    for (; v >= 0x80; v >>= 7) raw.push_back(static_cast<char>((v & 0x7F) | 0x80));
+    raw.push_back(static_cast<char>(v));
+  };
+  const std::uint64_t points = std::uint64_t{codec::kMaxPointsPerByte} * stream;
+  varint(points);
+  for (std::uint64_t c = 1; c < codewords; ++c) varint(0);
+  varint(stream);
+  raw.append(stream, '\0');
+  std::string frame(ZSTD_compressBound(raw.size()), '\0');
+  const std::size_t n = ZSTD_compress(frame.data(), frame.size(), raw.data(), raw.size(), 19);
+  ASSERT_FALSE(ZSTD_isError(n));
+  frame.resize(n);
+  ASSERT_LT(frame.size(), 2048u);
+
+  // Splice it in and make every size, offset and CRC consistent.
+  std::string bomb = file.substr(0, codec::kHeaderSize) + frame +
+                     file.substr(section(1, 8));
+  const std::int64_t shift = static_cast<std::int64_t>(frame.size()) -
+                             static_cast<std::int64_t>(section(0, 16));
+  store_le(bomb, codec::kSectionTableOffset + 16, frame.size(), 8);
+  for (std::size_t i = 1; i < codec::kSectionCount; ++i) {
+    const std::size_t at = codec::kSectionTableOffset + i * codec::kSectionEntrySize + 8;
+    store_le(bomb, at, static_cast<std::uint64_t>(static_cast<std::int64_t>(load_le(bomb, at, 8)) + shift), 8);
+  }
+  const std::size_t seek = codec::kHeaderSize + frame.size();
+  store_le(bomb, seek + 8, frame.size(), 4);
+  store_le(bomb, seek + 12, raw.size(), 4);
+  store_le(bomb, seek + 16, codec::crc32_of(bytes_of(frame)), 4);
+  store_le(bomb, seek + 28, points, 4);
+  store_le(bomb, 80, points, 8);
+  const auto crc = [&bomb](std::uint64_t offset, std::uint64_t size) {
+    return codec::crc32_of(bytes_of(bomb).subspan(offset, size));
+  };
+  for (std::size_t i = 0; i < codec::kSectionCount; ++i) {
+    const std::size_t e = codec::kSectionTableOffset + i * codec::kSectionEntrySize;
+    store_le(bomb, e + 4, crc(load_le(bomb, e + 8, 8), load_le(bomb, e + 16, 8)), 4);
+  }
+  store_le(bomb, codec::kHeaderCrcOffset, crc(0, codec::kHeaderCrcOffset), 4);
+  ASSERT_LT(bomb.size(), 4096u);
+
+  const long rss_before = peak_rss_kib();
+  g_largest_allocation = 0;
+  auto model = CompressedModel::from_bytes(bomb);
+  if (model.ok()) {
+    // Without the expansion limit the file opens; decoding it must not allocate for 2^29 points.
+    auto all = model->decode_all();
+    ADD_FAILURE() << "the bomb opened; decode: " << all.status().to_string();
+  } else {
+    EXPECT_EQ(model.status().code(), StatusCode::kCorrupt);
+    EXPECT_NE(model.status().message().find("cannot expand"), std::string::npos)
+        << model.status().message();
+  }
+  EXPECT_LT(g_largest_allocation.load(), kAllowedBytes);
+  EXPECT_LT(peak_rss_kib() - rss_before, 16 * 1024);
 }
 
 }  // namespace
