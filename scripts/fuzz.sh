@@ -29,6 +29,10 @@ case "$target" in
 esac
 
 build="${SSPC_FUZZ_BUILD_DIR:-build-fuzz}"
+if ! command -v clang++ >/dev/null; then
+  echo "fuzz.sh: needs clang and libFuzzer (Debian: apt-get install clang libclang-rt-14-dev)" >&2
+  exit 2
+fi
 if [ ! -f "$build/build.ninja" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DSSPC_WERROR=OFF -DSSPC_BUILD_FUZZ=ON -DSSPC_SANITIZE=address,undefined \

@@ -4,6 +4,12 @@
 // same result on 1 or 32 threads. deterministic_sum splits the range into fixed chunks that do
 // not depend on the thread count and adds the partial sums in order, so floating-point sums are
 // bit-identical across runs and thread counts.
+//
+// Under ThreadSanitizer the same loops run on std::threads instead (see detail::run_chunks):
+// TSan sees only the synchronisation of instrumented code, and the system's TBB is not
+// instrumented, so every hand-off of a task between TBB's threads looks like a race. Threads
+// that are started and joined are synchronisation TSan understands, so what it reports there are
+// races in sspc's own loop bodies, which is what the TSan build is for.
 #pragma once
 
 #include <algorithm>
@@ -12,15 +18,64 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#if defined(__SANITIZE_THREAD__)
+#define SSPC_THREAD_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define SSPC_THREAD_SANITIZER 1
+#endif
+#endif
+
+#ifdef SSPC_THREAD_SANITIZER
+#include <tbb/global_control.h>
+
+#include <atomic>
+#include <thread>
+#endif
 
 namespace sspc {
+
+#ifdef SSPC_THREAD_SANITIZER
+namespace detail {
+
+// body(c) for every c in [0, chunks), on as many std::threads as TBB would use (at least two
+// when allowed, so that TSan sees bodies run concurrently even on one core).
+template <typename Body>
+void run_chunks(std::size_t chunks, Body&& body) {
+  const std::size_t allowed =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  const std::size_t cores = std::max(2u, std::thread::hardware_concurrency());
+  const std::size_t n = std::min({allowed, cores, chunks});
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t c = next.fetch_add(1); c < chunks; c = next.fetch_add(1)) body(c);
+  };
+  std::vector<std::thread> threads;
+  for (std::size_t t = 1; t < n; ++t) threads.emplace_back(work);
+  work();
+  for (std::thread& t : threads) t.join();
+}
+
+}  // namespace detail
+#endif
 
 // body(begin, end) for consecutive sub-ranges of [begin, end).
 template <typename Body>
 void parallel_for_ranges(std::size_t begin, std::size_t end, std::size_t grain, Body&& body) {
   if (end <= begin) return;
+#ifdef SSPC_THREAD_SANITIZER
+  // Ranges of at least `grain`, about 64 in all: enough for the threads to interleave.
+  const std::size_t size = std::max({grain, std::size_t{1}, (end - begin + 63) / 64});
+  detail::run_chunks((end - begin + size - 1) / size, [&](std::size_t c) {
+    const std::size_t b = begin + c * size;
+    body(b, std::min(end, b + size));
+  });
+#else
   tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, std::max<std::size_t>(grain, 1)),
                     [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+#endif
 }
 
 // body(i) for every i in [begin, end).
@@ -31,6 +86,16 @@ void parallel_for(std::size_t begin, std::size_t end, std::size_t grain, Body&& 
   });
 }
 
+// a() and b(), possibly at the same time.
+template <typename A, typename B>
+void parallel_invoke(A&& a, B&& b) {
+#ifdef SSPC_THREAD_SANITIZER
+  detail::run_chunks(2, [&](std::size_t c) { c == 0 ? a() : b(); });
+#else
+  tbb::parallel_invoke(a, b);
+#endif
+}
+
 // Sum of term(i) over [begin, end), identical bit for bit whatever the thread count.
 // `T` needs a value-initialised zero and operator+=.
 template <typename T, typename Term>
@@ -38,7 +103,7 @@ T deterministic_sum(std::size_t begin, std::size_t end, Term&& term, std::size_t
   if (end <= begin) return T{};
   const std::size_t chunks = (end - begin + chunk - 1) / chunk;
   std::vector<T> partial(chunks, T{});
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+  parallel_for(0, chunks, 1, [&](std::size_t c) {
     const std::size_t b = begin + c * chunk;
     const std::size_t e = std::min(end, b + chunk);
     T acc{};

@@ -10,8 +10,8 @@
 #include <optional>
 #include <string>
 
-#include <tbb/parallel_invoke.h>
 
+#include "core/parallel.hpp"
 #include "eval/directed_error.hpp"
 #include "eval/nearest_groups.hpp"
 #include "eval/normal_angle.hpp"
@@ -78,7 +78,7 @@ StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
   progress_begin(progress, "eval: k-d trees", ref.size() + test.size());
   std::optional<KdTree3> ref_tree;
   std::optional<KdTree3> test_tree;
-  tbb::parallel_invoke(
+  parallel_invoke(
       [&] {
         ref_tree.emplace(ref.positions);
         progress_advance(progress, ref.size());
