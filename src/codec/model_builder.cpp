@@ -99,8 +99,8 @@ EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, B
   number_codewords_by_first_use(model);
   if (stats != nullptr) {
     stats->spacing = spacing;
-    stats->patch_radius = patch_radius;
-    stats->coverage_radius = coverage_radius;
+    stats->patch_radius = static_cast<double>(patch_radius);
+    stats->coverage_radius = static_cast<double>(coverage_radius);
     stats->centres = centre_stats;
     stats->codebook = codebook_stats;
     stats->seconds_centres = seconds_centres;

@@ -113,7 +113,7 @@ std::vector<float> feature_strength(const PointCloud& cloud, const KdTree3& tree
     if (row.empty()) return;
     double sum = 0, sum2 = 0;
     for (std::uint32_t q : row) {
-      const double d = cloud.normals[p].dot(cloud.normals[q]);
+      const auto d = static_cast<double>(cloud.normals[p].dot(cloud.normals[q]));
       sum += d;
       sum2 += d * d;
     }
@@ -162,7 +162,7 @@ std::vector<float> nearest_centre_distances(std::span<const Vec3f> points, std::
 double max_distance_to_centres(std::span<const Vec3f> points, std::span<const Vec3f> centres) {
   if (points.empty() || centres.empty()) return 0;
   const std::vector<float> d = nearest_centre_distances(points, centres);
-  return *std::max_element(d.begin(), d.end());
+  return static_cast<double>(*std::max_element(d.begin(), d.end()));
 }
 
 std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& points_tree,
