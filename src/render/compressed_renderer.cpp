@@ -37,7 +37,7 @@ StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::si
     return std::move(cloud);
   }
   NormalOptions options;
-  options.k = static_cast<int>(std::min<std::size_t>(12, cloud.size() - 1));
+  options.k = static_cast<int>(std::min<std::size_t>(24, cloud.size() - 1));
   options.k = std::max(options.k, 3);
   SSPC_RETURN_IF_ERROR(estimate_normals(cloud, options));
   for (Vec3f& n : cloud.normals) {
@@ -78,11 +78,16 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   // code word holds points kept for its other instances, which need not fit this one. Every
   // surface point is within the coverage radius of some centre, so the patches still cover it.
   const float extent = info.coverage_radius + 2 * h;
+  std::vector<float> codeword_radius(words, 0.0f);
+  for (std::size_t c = 0; c < words; ++c) {
+    for (const Vec3f& p : points[c].positions) codeword_radius[c] = std::max(codeword_radius[c], p.norm());
+  }
+  points.clear();
+  points.shrink_to_fit();
   for (std::size_t k = 0; k < patches.size(); ++k) {
     SSPC_ASSIGN_OR_RETURN(patches[k], model.patch(k));
-    float radius = 0;
-    for (const Vec3f& p : points[patches[k].codeword].positions) radius = std::max(radius, p.norm());
-    spheres[k] = {patches[k].translation, std::min(radius + 3 * h, extent)};
+    const float reach = codeword_radius[patches[k].codeword] + surfaces[patches[k].codeword]->support_radius();
+    spheres[k] = {patches[k].translation, std::min(reach, extent)};
   }
   const render::SphereBvh bvh(spheres);
   const double build_seconds = seconds_since(start);
@@ -97,6 +102,7 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   struct Hit {
     float t;
     Vec3f normal;
+    float support;
     std::uint32_t patch;
   };
   Image image = render::trace_image(
@@ -123,7 +129,7 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
           const auto hit = surfaces[p.codeword]->intersect(o_local, d_local, iv.t0, std::min(iv.t1, best + window));
           if (!hit) continue;
           evaluations += static_cast<std::uint64_t>(hit->evaluations);
-          found.push_back({hit->t, p.rotation * hit->normal, iv.patch});
+          found.push_back({hit->t, p.rotation * hit->normal, hit->support, iv.patch});
           best = std::min(best, hit->t);
         }
         if (found.empty()) return false;
@@ -134,7 +140,11 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
         for (const Hit& f : found) {
           if (f.t > best + window) continue;
           const Vec3f xw = eye + f.t * d;
-          const float w = std::exp(-(xw - patches[f.patch].translation).squaredNorm() / sigma2);
+          // The paper's Gaussian on the distance to the patch centre, times the support of the
+          // patch's surface at the hit: where a code word's points end (the border of the
+          // region it was trimmed to), its surface is an extrapolation resting on few points,
+          // and the patch whose interior it is takes over smoothly.
+          const float w = f.support * std::exp(-(xw - patches[f.patch].translation).squaredNorm() / sigma2);
           sum_w += w;
           sum_t += w * f.t;
           sum_n += w * f.normal;
@@ -153,7 +163,7 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   if (stats != nullptr) {
     stats->build_seconds = build_seconds;
     stats->scene_bytes = bvh.memory_bytes() + patches.size() * sizeof(PatchRecord);
-    for (const PointCloud& c : points) stats->scene_bytes += c.size() * 2 * sizeof(Vec3f);
+    for (const auto& s : surfaces) stats->scene_bytes += s->memory_bytes();
   }
   return image;
 }

@@ -21,20 +21,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The ray's parameter interval inside `box` (slab test); empty when it misses.
-bool clip_to_box(const Vec3f& o, const Vec3f& d, const Box3f& box, float& t0, float& t1) {
-  t0 = 0;
-  t1 = std::numeric_limits<float>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    const float inv = 1.0f / d[a];
-    float near = (box.min()[a] - o[a]) * inv, far = (box.max()[a] - o[a]) * inv;
-    if (near > far) std::swap(near, far);
-    t0 = std::max(t0, near);
-    t1 = std::min(t1, far);
-  }
-  return t0 <= t1;
-}
-
 }  // namespace
 
 Camera frame_bounds(const Box3f& bounds, float fov_degrees) {
@@ -60,9 +46,6 @@ StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions&
   const double spacing = std::max(nominal_spacing(cloud), 1e-30);
   const auto h = static_cast<float>(static_cast<double>(o.bandwidth) * spacing);
   const render::MlsSurface surface(cloud.positions, cloud.normals, h);
-  Box3f box = cloud.bounding_box();
-  box.extend(box.min() - Vec3f::Constant(3 * h));
-  box.extend(box.max() + Vec3f::Constant(3 * h));
   const double build_seconds = seconds_since(start);
 
   const render::PinholeCamera camera(o.camera, o.width, o.height);
@@ -70,9 +53,7 @@ StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions&
       o, camera,
       [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
         const Vec3f d = camera.direction(x, y);
-        float t0 = 0, t1 = 0;
-        if (!clip_to_box(camera.eye(), d, box, t0, t1)) return false;
-        const auto hit = surface.intersect(camera.eye(), d, t0, t1);
+        const auto hit = surface.intersect(camera.eye(), d, 0, std::numeric_limits<float>::infinity());
         if (!hit) return false;
         evaluations += static_cast<std::uint64_t>(hit->evaluations);
         frame.set(x, y, hit->t, hit->normal, 0);
@@ -81,7 +62,7 @@ StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions&
       stats);
   if (stats != nullptr) {
     stats->build_seconds = build_seconds;
-    stats->scene_bytes = cloud.size() * 2 * sizeof(Vec3f);
+    stats->scene_bytes = surface.memory_bytes();
   }
   return image;
 }
