@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -55,14 +56,40 @@ struct RenderStats {
   std::uint64_t scene_bytes = 0;  // points and normals held, plus the acceleration structure
 };
 
-// Renders `cloud` (which must have unit normals; see ensure_normals). Deterministic: the image
-// does not depend on the thread count.
+// What a renderer traces: built once (surfaces, acceleration structures), then rendered from any
+// number of cameras. Rendering is deterministic: an image does not depend on the thread count.
+class RenderScene {
+ public:
+  virtual ~RenderScene() = default;
+
+  // One MLS surface over all of `cloud`'s points; the cloud must have unit normals (see
+  // ensure_normals). `bandwidth` is h in point spacings.
+  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud(const PointCloud& cloud, float bandwidth = 1.5f,
+                                                                 Progress* progress = nullptr);
+  // A compressed model, rendered directly without decoding it: a BVH over the patches' spheres,
+  // the MLS surface of each code word built once and shared by its instances, the hits of
+  // overlapping patches blended. Code words without stored normals get PCA normals. The scene
+  // keeps what it needs; the model may be closed afterwards.
+  static StatusOr<std::unique_ptr<RenderScene>> from_compressed(const CompressedModel& model, float bandwidth = 1.5f,
+                                                                Progress* progress = nullptr);
+
+  // Renders one frame; options.bandwidth is the scene's. Fills `stats` when given, including
+  // the scene's build time and memory.
+  virtual StatusOr<Image> render(const RenderOptions& options, RenderStats* stats = nullptr) const = 0;
+
+  virtual Box3f bounds() const = 0;
+  double build_seconds() const { return build_seconds_; }
+  // Bytes the scene holds: points, normals, their grids, the BVH and the patches' transforms.
+  std::uint64_t memory_bytes() const { return memory_bytes_; }
+
+ protected:
+  double build_seconds_ = 0;
+  std::uint64_t memory_bytes_ = 0;
+};
+
+// One frame in one call: builds the scene with options.bandwidth, then renders it.
 StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& options,
                                    RenderStats* stats = nullptr);
-
-// Renders a compressed model directly, without decoding it: a BVH over the patches' spheres, the
-// MLS surface of each code word built once and shared by its instances, the hits of overlapping
-// patches blended. Code words without stored normals get PCA normals.
 StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& options,
                                   RenderStats* stats = nullptr);
 

@@ -10,6 +10,7 @@ namespace {
 
 // Support radius in bandwidths: the Gaussian is e^−6.25 ≈ 0.2% of its peak there.
 constexpr float kSupport = 2.5f;
+constexpr std::size_t kSupportSamples = 64;
 // Refinement steps once a crossing is bracketed, and the precision they stop at, in
 // bandwidths: far below a pixel's footprint at any useful zoom.
 constexpr int kMaxIterations = 12;
@@ -22,7 +23,8 @@ constexpr double kMinCells = 64;
 
 }  // namespace
 
-MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth)
+MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
+                       float edge_support)
     : h_(bandwidth),
       radius_(kSupport * bandwidth),
       inv_h2_(1.0f / (bandwidth * bandwidth)),
@@ -109,6 +111,21 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
       }
     }
   }
+
+  // The support at the points themselves, on a sample of them: its median is what the interior
+  // of the surface rests on, and a fraction of it is where the surface ends.
+  if (!(edge_support > 0)) return;
+  const std::size_t stride = std::max<std::size_t>(1, n / kSupportSamples);
+  std::vector<float> samples;
+  for (std::size_t j = 0; j < n; j += stride) {
+    Vec3f a, nn;
+    float support = 0;
+    if (evaluate(Vec3f(x_[j], y_[j], z_[j]), a, nn, support)) samples.push_back(support);
+  }
+  if (!samples.empty()) {
+    std::nth_element(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2), samples.end());
+    min_support_ = edge_support * samples[samples.size() / 2];
+  }
 }
 
 std::size_t MlsSurface::memory_bytes() const {
@@ -141,7 +158,7 @@ bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) co
       }
     }
   }
-  if (!(sw > 0)) return false;
+  if (!(sw > min_support_)) return false;
   a = Vec3f(spx, spy, spz) / sw;
   n = Vec3f(snx, sny, snz);
   support = sw;

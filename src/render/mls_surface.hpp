@@ -4,8 +4,9 @@
 // f(x) = n(x) · (x − a(x)), where a(x) and n(x) are the averages of the points and normals
 // near x weighted by the Gaussian exp(−|x − p|² / h²), lowered by its value at the support
 // radius r = 2.5h so that it reaches 0 there (the weights stay continuous as points enter and
-// leave the support; e^−6.25 is 0.2% of the peak). The surface is f = 0 where some point lies
-// within r; elsewhere it is undefined, which is what ends it at the edge of a scan or a patch.
+// leave the support; e^−6.25 is 0.2% of the peak). The surface is f = 0 where some point is
+// within r (or, on request, where the support Σ w is at least a given fraction of its median at
+// the points); elsewhere it is undefined, which is what ends it at the edge of a scan or a patch.
 //
 // Neighbours come from a uniform grid of cells at least r wide, its points stored cell by cell
 // in x-major rows: the support of any x meets at most 3 × 3 rows of 3 cells, each a contiguous
@@ -41,14 +42,17 @@ struct SurfaceHit {
 
 class MlsSurface {
  public:
-  // Copies `points` and `normals` (unit, same length). `bandwidth` is h > 0.
-  MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth);
+  // Copies `points` and `normals` (unit, same length). `bandwidth` is h > 0. With
+  // `edge_support` > 0 the surface ends where its support Σ w falls below that fraction of the
+  // median support at the points, rather than where the last point leaves the support radius.
+  MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
+             float edge_support = 0);
 
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
   std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
 
-  // a(x), n(x) (unnormalised mean normal) and Σ weights; false where no point is within the
-  // support radius of x.
+  // a(x), n(x) (unnormalised mean normal) and Σ weights; false where the surface is undefined
+  // (too little support).
   bool evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) const;
 
   float bandwidth() const { return h_; }
@@ -78,6 +82,7 @@ class MlsSurface {
   float radius_;    // support radius r
   float inv_h2_;    // 1 / h²
   float floor_w_;   // exp(−r²/h²), subtracted from every weight
+  float min_support_ = 0;  // where the surface ends
   float weight_table_[kTable + 2];  // weight at d² = r²·k/kTable (one more for rounding)
   float cell_;      // grid cell edge, ≥ r
   float inv_cell_;
