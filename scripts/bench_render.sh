@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# Primary-ray rendering benchmark (issue: the renderer, item 6): each scan rendered at 1024×1024
+# on 2 threads from the automatic camera, uncompressed (one MLS surface over its points) and
+# compressed (the .sspc model at the default level, rendered directly): scene build seconds,
+# Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per original point
+# and peak memory. Writes docs/results/render_bench.csv and prints a Markdown table.
+#
+# Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
+#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="5"
+#   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
+# Installs what it needs (a release build, Debian's time package, python3).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data="${1:-../shared/data}"
+SCANS="${SCANS:-bunny dragon_scans autzen}"
+SIZE="${SIZE:-1024x1024}"
+THREADS="${THREADS:-2}"
+LEVELS="${LEVELS:-5}"
+WORK="${WORK:-/tmp/sspc_bench_render}"
+if [ ! -d "$data" ]; then
+  echo "bench_render: no data directory $data; nothing to measure" >&2
+  exit 0
+fi
+
+bash scripts/install_deps.sh
+need=()
+[ -x /usr/bin/time ] || need+=(time)
+command -v python3 >/dev/null || need+=(python3)
+if ((${#need[@]})); then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
+fi
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build --target sspc_cli >/dev/null
+sspc="$PWD/build/sspc"
+mkdir -p "$WORK" docs/results
+csv=docs/results/render_bench.csv
+echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib" > "$csv"
+
+# One configuration: three renders, the median render time; build time and memory of the first.
+measure() {  # scan model-label input
+  local scan="$1" label="$2" input="$3" runs=()
+  for r in 1 2 3; do
+    /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" \
+      -o "$WORK/frame.png" -f --size "$SIZE" --json > "$WORK/run$r.json"
+    runs+=("$WORK/run$r.json")
+    rss_kib[$r]=$(tail -1 "$WORK/rss")
+  done
+  python3 - "$scan" "$label" "$SIZE" "$THREADS" "${rss_kib[1]}" "${runs[@]}" >> "$csv" <<'EOF'
+import json, sys
+scan, label, size, threads, rss = sys.argv[1:6]
+runs = [json.load(open(p)) for p in sys.argv[6:]]
+runs.sort(key=lambda r: r["render_seconds"])
+m = runs[len(runs) // 2]
+print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
+      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["hits"]},{m["evaluations_per_hit"]:.1f},'
+      f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f}')
+EOF
+  tail -1 "$csv"
+}
+
+declare -a rss_kib
+for scan in $SCANS; do
+  src="$data/$scan.ply"
+  [ -f "$src" ] || { echo "bench_render: $src missing, skipped" >&2; continue; }
+  # The uncompressed scene needs normals: estimated once (scans that have them keep theirs).
+  plain="$WORK/$scan.normals.ply"
+  [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
+  measure "$scan" uncompressed "$plain"
+  for level in $LEVELS; do
+    model="$WORK/$scan.l$level.sspc"
+    [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
+    measure "$scan" "compressed-l$level" "$model"
+  done
+done
+
+echo
+python3 - "$csv" <<'EOF'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+print("| scan | model | build s | Mrays/s | hits | evaluations/hit | scene bytes/point | peak MiB |")
+print("|---|---|---|---|---|---|---|---|")
+for r in rows:
+    print(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
+          f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
+EOF
