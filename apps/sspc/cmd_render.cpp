@@ -30,6 +30,7 @@ struct RenderCliOptions {
   float fov = 40;
   float bandwidth = 1.5f;
   Shade shade = Shade::kLambert;
+  bool compact = true;
   std::string camera_path;
   int orbit = 0;
   std::string times;
@@ -155,7 +156,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     auto model = CompressedModel::open(o.input);
     if (!model.ok()) return report_failure(model.status());
     points = model->info().source_points;
-    scene = RenderScene::from_compressed(*model, o.bandwidth, progress.get());
+    scene = RenderScene::from_compressed(*model, o.bandwidth, progress.get(), o.compact);
   } else {
     ReadOptions read;
     read.progress = progress.get();
@@ -245,6 +246,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         .field("render_seconds", total.render_seconds)
         .field("frame_seconds_median", median)
         .field("rays_per_second", rays_per_second)
+        .field("storage", is_sspc_file(o.input) ? (o.compact ? "compact" : "float") : "float")
         .field("scene_bytes", bytes)
         .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0);
     if (sequence) {
@@ -287,6 +289,11 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--shade", o->shade, "lambert, normal, depth, or codeword (a colour per code word)")
       ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case))
       ->default_str("lambert");
+  const std::map<std::string, bool> storages{{"compact", true}, {"float", false}};
+  app->add_option("--storage", o->compact,
+                  "A compressed model's code words in memory: compact (6 bytes a point) or float (24, faster)")
+      ->transform(CLI::CheckedTransformer(storages, CLI::ignore_case))
+      ->default_str("compact");
   app->add_option("--camera-path", o->camera_path,
                   "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
                   "frames go to OUT_0000.png, ... and each frame's time to a CSV")

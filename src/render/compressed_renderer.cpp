@@ -57,7 +57,7 @@ StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::si
 
 class CompressedScene final : public RenderScene {
  public:
-  Status build(const CompressedModel& model, float bandwidth, Progress* progress);
+  Status build(const CompressedModel& model, float bandwidth, Progress* progress, bool compact);
   StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override;
   Box3f bounds() const override { return bounds_; }
 
@@ -70,7 +70,7 @@ class CompressedScene final : public RenderScene {
   std::unique_ptr<render::SphereBvh> bvh_;
 };
 
-Status CompressedScene::build(const CompressedModel& model, float bandwidth, Progress* progress) {
+Status CompressedScene::build(const CompressedModel& model, float bandwidth, Progress* progress, bool compact) {
   if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
   const ModelInfo info = model.info();
   if (model.patch_count() == 0) return invalid_argument("the model has no patches");
@@ -91,7 +91,8 @@ Status CompressedScene::build(const CompressedModel& model, float bandwidth, Pro
       return;
     }
     for (const Vec3f& p : cloud->positions) codeword_radius[c] = std::max(codeword_radius[c], p.norm());
-    surfaces_[c] = std::make_unique<render::MlsSurface>(cloud->positions, cloud->normals, h_, kEdgeSupport);
+    surfaces_[c] = std::make_unique<render::MlsSurface>(cloud->positions, cloud->normals, h_, kEdgeSupport,
+                                                        compact ? render::PointStorage::kCompact : render::PointStorage::kFloat);
     progress_advance(progress, 1);
   });
   progress_end(progress);
@@ -195,15 +196,15 @@ StatusOr<Image> CompressedScene::render(const RenderOptions& o, RenderStats* sta
 }  // namespace
 
 StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_compressed(const CompressedModel& model, float bandwidth,
-                                                                    Progress* progress) {
+                                                                    Progress* progress, bool compact) {
   auto scene = std::make_unique<CompressedScene>();
-  SSPC_RETURN_IF_ERROR(scene->build(model, bandwidth, progress));
+  SSPC_RETURN_IF_ERROR(scene->build(model, bandwidth, progress, compact));
   return std::unique_ptr<RenderScene>(std::move(scene));
 }
 
 StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& o, RenderStats* stats) {
   SSPC_RETURN_IF_ERROR(render::check_options(o));
-  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_compressed(model, o.bandwidth, o.progress));
+  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_compressed(model, o.bandwidth, o.progress, o.compact));
   return scene->render(o, stats);
 }
 

@@ -40,13 +40,21 @@ struct SurfaceHit {
   int evaluations = 0;
 };
 
+// How the surface keeps its points. kFloat: as given (12 bytes a position, 12 a normal).
+// kCompact, for small, nearly flat sets such as a code word in its frame (z along its mean
+// normal): one layer of cells over x, y, each point's position in 8 bits per axis relative to
+// its cell (a 255th of the support radius across, far finer than the codec's grid) and its normal
+// in 8 bits per component: 6 bytes a point, and 2 bytes a cell for the grid. Sets of 65,536
+// points or more are kept as kFloat.
+enum class PointStorage { kFloat, kCompact };
+
 class MlsSurface {
  public:
   // Copies `points` and `normals` (unit, same length). `bandwidth` is h > 0. With
   // `edge_support` > 0 the surface ends where its support Σ w falls below that fraction of the
   // median support at the points, rather than where the last point leaves the support radius.
   MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
-             float edge_support = 0);
+             float edge_support = 0, PointStorage storage = PointStorage::kFloat);
 
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
   std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
@@ -57,7 +65,7 @@ class MlsSurface {
 
   float bandwidth() const { return h_; }
   float support_radius() const { return radius_; }
-  std::size_t size() const { return x_.size(); }
+  std::size_t size() const { return size_; }
   // Bytes held: points, normals and the grid.
   std::size_t memory_bytes() const;
 
@@ -69,12 +77,21 @@ class MlsSurface {
   }
   // The cell holding coordinate v along an axis, clamped to the grid.
   int cell_coordinate(float v, int axis) const {
-    const float c = (v - origin_[axis]) * inv_cell_;
+    const float c = (v - origin_[axis]) * inv_cell_[axis];
     // Compared as floats first: a coordinate far outside the grid must not overflow an int.
     if (!(c > 0)) return 0;
     if (c >= last_[axis]) return dims_[axis] - 1;
     return static_cast<int>(c);
   }
+  std::uint32_t cell_begin(std::size_t c) const { return compact_ ? start16_[c] : start_[c]; }
+  bool near(std::size_t c) const { return ((near_[c >> 6] >> (c & 63)) & 1) != 0; }
+  Vec3f cell_corner(int ix, int iy, int iz) const {
+    return origin_ + Vec3f(static_cast<float>(ix) * cell_[0], static_cast<float>(iy) * cell_[1],
+                           static_cast<float>(iz) * cell_[2]);
+  }
+  // Calls visit(j, position) for every point, cell by cell.
+  template <typename Visit>
+  void for_each_point(Visit&& visit) const;
 
   static constexpr std::size_t kTable = 256;
 
@@ -84,14 +101,19 @@ class MlsSurface {
   float floor_w_;   // exp(−r²/h²), subtracted from every weight
   float min_support_ = 0;  // where the surface ends
   float weight_table_[kTable + 2];  // weight at d² = r²·k/kTable (one more for rounding)
-  float cell_;      // grid cell edge, ≥ r
-  float inv_cell_;
+  bool compact_ = false;
+  std::size_t size_ = 0;
+  float cell_[3];       // grid cell edges: ≥ r, except a compact grid's single layer in z
+  float inv_cell_[3];
   float last_[3] = {0, 0, 0};  // dims − 1, as floats
   Vec3f origin_;    // the grid's lower corner
   int dims_[3] = {1, 1, 1};
-  std::vector<std::uint32_t> start_;  // per cell, its first point; one more at the end
-  std::vector<std::uint8_t> near_;    // per cell: some point within one cell (and so within r)
-  std::vector<float> x_, y_, z_, nx_, ny_, nz_;  // points and normals, cell by cell
+  std::vector<std::uint32_t> start_;    // per cell, its first point; one more at the end
+  std::vector<std::uint16_t> start16_;  // the same, compact
+  std::vector<std::uint64_t> near_;     // per cell, a bit: some point within r of the cell
+  std::vector<float> x_, y_, z_, nx_, ny_, nz_;          // kFloat: points and normals, cell by cell
+  std::vector<std::uint8_t> qx_, qy_, qz_;               // kCompact: 255ths of the cell
+  std::vector<std::int8_t> qnx_, qny_, qnz_;             // kCompact: 127ths
 };
 
 }  // namespace sspc::render
