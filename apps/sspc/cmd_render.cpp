@@ -31,6 +31,8 @@ struct RenderCliOptions {
   float bandwidth = 1.5f;
   Shade shade = Shade::kLambert;
   bool compact = true;
+  double budget_mib = 0;
+  std::string page_dir;
   std::string camera_path;
   int orbit = 0;
   std::string times;
@@ -166,7 +168,14 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     normals.progress = progress.get();
     if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input + ": "));
     points = cloud->size();
-    scene = RenderScene::from_point_cloud(*cloud, o.bandwidth, progress.get());
+    if (o.budget_mib > 0) {
+      const auto budget = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
+      const std::filesystem::path dir =
+          o.page_dir.empty() ? std::filesystem::temp_directory_path() : std::filesystem::path(o.page_dir);
+      scene = RenderScene::from_point_cloud_paged(*cloud, o.bandwidth, budget, dir, progress.get());
+    } else {
+      scene = RenderScene::from_point_cloud(*cloud, o.bandwidth, progress.get());
+    }
   }
   if (!scene.ok()) return report_failure(scene.status().with_context(o.input + ": "));
 
@@ -185,7 +194,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
 
   std::vector<RenderStats> frames;
   if (sequence) progress_begin(progress.get(), "render", cameras.size(), "frames");
-  std::string csv = "frame,eye_x,eye_y,eye_z,target_x,target_y,target_z,render_seconds,rays,hits,evaluations,rays_per_second\n";
+  std::string csv =
+      "frame,eye_x,eye_y,eye_z,target_x,target_y,target_z,render_seconds,rays,hits,evaluations,rays_per_second,"
+      "bytes_read\n";
   for (std::size_t f = 0; f < cameras.size(); ++f) {
     options.camera = cameras[f];
     options.progress = cameras.size() == 1 ? progress.get() : nullptr;
@@ -199,11 +210,12 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     const double rps = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
     char row[512];
     const Camera& c = cameras[f];
-    std::snprintf(row, sizeof row, "%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%llu,%llu,%llu,%.6g\n", f,
+    std::snprintf(row, sizeof row, "%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%llu,%llu,%llu,%.6g,%llu\n", f,
                   static_cast<double>(c.eye.x()), static_cast<double>(c.eye.y()), static_cast<double>(c.eye.z()),
                   static_cast<double>(c.target.x()), static_cast<double>(c.target.y()), static_cast<double>(c.target.z()),
                   stats.render_seconds, static_cast<unsigned long long>(stats.rays),
-                  static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.evaluations), rps);
+                  static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.evaluations), rps,
+                  static_cast<unsigned long long>(stats.bytes_read));
     csv += row;
     if (sequence) progress_advance(progress.get(), 1);
     frames.push_back(stats);
@@ -217,7 +229,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
 
   RenderStats total;
   std::vector<double> seconds;
+  std::uint64_t bytes = (*scene)->memory_bytes();
   for (const RenderStats& f : frames) {
+    bytes = std::max(bytes, f.scene_bytes);
+    total.bytes_read += f.bytes_read;
+    total.pages_read += f.pages_read;
     total.rays += f.rays;
     total.hits += f.hits;
     total.evaluations += f.evaluations;
@@ -227,7 +243,6 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   std::sort(seconds.begin(), seconds.end());
   const double median = seconds[seconds.size() / 2];
   const double build = (*scene)->build_seconds();
-  const std::uint64_t bytes = (*scene)->memory_bytes();
   const double rays_per_second = total.render_seconds > 0 ? static_cast<double>(total.rays) / total.render_seconds : 0;
   if (o.json) {
     JsonWriter json;
@@ -248,10 +263,18 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         .field("rays_per_second", rays_per_second)
         .field("storage", is_sspc_file(o.input) ? (o.compact ? "compact" : "float") : "float")
         .field("scene_bytes", bytes)
-        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0);
+        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0)
+        .field("bytes_read", total.bytes_read)
+        .field("pages_read", total.pages_read);
+    if (o.budget_mib > 0) {
+      json.field("memory_budget_bytes", static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024))
+          .field("within_budget", static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024);
+    }
     if (sequence) {
       json.field("times", times).key("frame_seconds").begin_array();
       for (const RenderStats& f : frames) json.value(f.render_seconds);
+      json.end_array().key("frame_bytes_read").begin_array();
+      for (const RenderStats& f : frames) json.value(f.bytes_read);
       json.end_array();
     }
     json.end_object();
@@ -294,6 +317,11 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
                   "A compressed model's code words in memory: compact (6 bytes a point) or float (24, faster)")
       ->transform(CLI::CheckedTransformer(storages, CLI::ignore_case))
       ->default_str("compact");
+  app->add_option("--memory-budget", o->budget_mib,
+                  "MiB a point cloud's scene may hold: its points are paged in from a file through a cache of that "
+                  "size (a compressed model is reported against it)")
+      ->check(CLI::Range(1.0, 1e7));
+  app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)");
   app->add_option("--camera-path", o->camera_path,
                   "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
                   "frames go to OUT_0000.png, ... and each frame's time to a CSV")

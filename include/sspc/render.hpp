@@ -56,6 +56,8 @@ struct RenderStats {
   std::uint64_t hits = 0;
   std::uint64_t evaluations = 0;  // MLS evaluations, all rays
   std::uint64_t scene_bytes = 0;  // points and normals held, plus the acceleration structure
+  std::uint64_t bytes_read = 0;   // a paged scene: what this frame read from its page file
+  std::uint64_t pages_read = 0;   // ... in how many bricks
 };
 
 // What a renderer traces: built once (surfaces, acceleration structures), then rendered from any
@@ -68,6 +70,15 @@ class RenderScene {
   // ensure_normals). `bandwidth` is h in point spacings.
   static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud(const PointCloud& cloud, float bandwidth = 1.5f,
                                                                  Progress* progress = nullptr);
+  // The same surface within a memory budget, for clouds too large to hold: the points are split
+  // into bricks written to a page file in `page_dir` (removed with the scene), each with the
+  // points within the support radius of its box, and read back as rays reach them through a
+  // cache of at most `budget_bytes` of surfaces, the least recently used evicted. Frames report
+  // the bytes they read; images are the same as from_point_cloud's up to the bricks' borders.
+  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud_paged(const PointCloud& cloud, float bandwidth,
+                                                                       std::uint64_t budget_bytes,
+                                                                       const std::filesystem::path& page_dir,
+                                                                       Progress* progress = nullptr);
   // A compressed model, rendered directly without decoding it: a BVH over the patches' spheres,
   // the MLS surface of each code word built once and shared by its instances, the hits of
   // overlapping patches blended. Code words without stored normals get PCA normals. The scene

@@ -201,6 +201,44 @@ TEST(Renderer, CompactAndFloatCodeWordsAgree) {
   EXPECT_LE(4 * compact_stats.scene_bytes, float_stats.scene_bytes + float_stats.scene_bytes / 10);
 }
 
+// The paged scene renders what the in-memory one does, within its budget: with room for every
+// brick the second frame reads nothing; with room for a third of the scene it reads again, and
+// the picture is the same.
+TEST(Renderer, PagedSceneMatchesTheInMemoryOne) {
+  SphereScene scene;
+  RenderStats plain_stats;
+  auto plain = render_point_cloud(scene.cloud, scene.options, &plain_stats);
+  ASSERT_TRUE(plain.ok());
+  test::TempDir dir;
+  for (const std::uint64_t budget : {std::uint64_t{1} << 30, plain_stats.scene_bytes / 3}) {
+    auto paged = RenderScene::from_point_cloud_paged(scene.cloud, scene.options.bandwidth, budget, dir.path());
+    ASSERT_TRUE(paged.ok()) << paged.status().to_string();
+    RenderStats first, second;
+    auto a = (*paged)->render(scene.options, &first);
+    auto b = (*paged)->render(scene.options, &second);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->rgb, b->rgb);
+    EXPECT_GT(first.bytes_read, scene.cloud.size() * 24);  // every point, and the halos
+    if (budget > (1u << 20)) {
+      EXPECT_EQ(second.bytes_read, 0u);
+    } else {
+      EXPECT_GT(second.bytes_read, 0u);
+      EXPECT_LE(second.scene_bytes, budget + budget);  // a brick or so over the budget at most
+    }
+    int disagree = 0;
+    std::vector<float> errors;
+    for (std::size_t i = 0; i < plain->depth.size(); ++i) {
+      const bool x = std::isfinite(plain->depth[i]), y = std::isfinite(a->depth[i]);
+      if (x != y) ++disagree;
+      if (x && y) errors.push_back(std::abs(plain->depth[i] - a->depth[i]));
+    }
+    EXPECT_LE(disagree, 3);
+    std::sort(errors.begin(), errors.end());
+    EXPECT_LT(errors[errors.size() * 99 / 100], 0.002f);
+  }
+  EXPECT_EQ(test::count_files(dir.path()), 0u);  // the page files went with their scenes
+}
+
 // A compressed plane shows no seams: where patches meet, the shading varies from pixel to pixel no
 // more than inside patches. The plane is a jittered grid with a little noise in z, so patches are
 // copies of one another up to their sampling, as on a scan.
