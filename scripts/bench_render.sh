@@ -3,10 +3,10 @@
 # on 2 threads from the automatic camera, uncompressed (one MLS surface over its points) and
 # compressed (the .sspc model at the default level, rendered directly): scene build seconds,
 # Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per original point
-# and peak memory. Writes docs/results/render_bench.csv and prints a Markdown table.
+# and peak memory. Writes docs/results/render_bench.csv and its table in docs/RESULTS.md.
 #
 # Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
-#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="5"
+#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="5"   STORAGES="compact float"
 #   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
 # Installs what it needs (a release build, Debian's time package, python3).
 set -euo pipefail
@@ -16,6 +16,7 @@ SCANS="${SCANS:-bunny dragon_scans autzen}"
 SIZE="${SIZE:-1024x1024}"
 THREADS="${THREADS:-2}"
 LEVELS="${LEVELS:-5}"
+STORAGES="${STORAGES:-compact float}"
 WORK="${WORK:-/tmp/sspc_bench_render}"
 if [ ! -d "$data" ]; then
   echo "bench_render: no data directory $data; nothing to measure" >&2
@@ -38,11 +39,12 @@ csv=docs/results/render_bench.csv
 echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib" > "$csv"
 
 # One configuration: three renders, the median render time; build time and memory of the first.
-measure() {  # scan model-label input
+measure() {  # scan model-label input [render options]
   local scan="$1" label="$2" input="$3" runs=()
+  shift 3
   for r in 1 2 3; do
     /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" \
-      -o "$WORK/frame.png" -f --size "$SIZE" --json > "$WORK/run$r.json"
+      -o "$WORK/frame.png" -f --size "$SIZE" --json "$@" > "$WORK/run$r.json"
     runs+=("$WORK/run$r.json")
     rss_kib[$r]=$(tail -1 "$WORK/rss")
   done
@@ -70,17 +72,32 @@ for scan in $SCANS; do
   for level in $LEVELS; do
     model="$WORK/$scan.l$level.sspc"
     [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
-    measure "$scan" "compressed-l$level" "$model"
+    for storage in $STORAGES; do
+      measure "$scan" "compressed-l$level-$storage" "$model" --storage "$storage"
+    done
   done
 done
 
 echo
-python3 - "$csv" <<'EOF'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-print("| scan | model | build s | Mrays/s | hits | evaluations/hit | scene bytes/point | peak MiB |")
-print("|---|---|---|---|---|---|---|---|")
+python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" <<'EOF'
+import csv, datetime, os, sys
+path, results, commit, cores = sys.argv[1:]
+rows = list(csv.DictReader(open(path)))
+lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
+         "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera (the scan's "
+         "bounding box seen from +z), Mrays/s over all rays (median of 3 frames), scene bytes per original point "
+         "(points, normals, grids, BVH and transforms), peak memory of the whole process.", "",
+         "| scan | model | build s | Mrays/s | rays hit | MLS evaluations per hit | scene bytes/point | peak MiB |",
+         "|---|---|---:|---:|---:|---:|---:|---:|"]
 for r in rows:
-    print(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
-          f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
+    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
+                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
+print("\n".join(lines))
+begin, end = "<!-- render-bench:begin -->", "<!-- render-bench:end -->"
+text = open(results).read()
+if begin not in text:
+    text += f"\n## Renderer: speed and memory\n\n{begin}\n{end}\n"
+head, rest = text.split(begin, 1)
+tail = rest.split(end, 1)[1]
+open(results, "w").write(head + begin + "\n" + "\n".join(lines) + "\n" + end + tail)
 EOF
