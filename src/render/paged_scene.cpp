@@ -4,7 +4,8 @@
 // support radius of its box, so that the MLS surface inside a brick needs no other brick. Rays
 // walk the bricks front to back (3D DDA); a brick's surface is read back and built when a ray
 // first needs it and kept in a cache of at most the budget's bytes, the least recently used
-// evicted. The image is the same whatever the cache holds: a brick's surface is built from the
+// evicted; the page file is kept out of the OS's page cache, so reads go to the disk. The image
+// is the same whatever the cache holds: a brick's surface is built from the
 // same bytes every time.
 #include <fcntl.h>
 #include <unistd.h>
@@ -154,10 +155,12 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
     progress_advance(progress, 1);
   }
   progress_end(progress);
+  written = std::fflush(out) == 0 && ::fdatasync(::fileno(out)) == 0 && written;
   written = std::fclose(out) == 0 && written;
   if (!written) return io_error(page_path_.string() + ": cannot write the page file (disk full?)");
   fd_ = ::open(page_path_.c_str(), O_RDONLY);
   if (fd_ < 0) return io_error(page_path_.string() + ": cannot open the page file");
+  ::posix_fadvise(fd_, 0, 0, POSIX_FADV_DONTNEED);  // written, synced: start with nothing cached
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   memory_bytes_ = bricks_.size() * sizeof(Brick);  // what stays; the cache is counted per frame
   return Status();
@@ -182,6 +185,10 @@ StatusOr<PagedScene::SurfacePtr> PagedScene::surface(std::size_t b) const {
     if (got <= 0) return io_error(page_path_.string() + ": cannot read a page");
     done += static_cast<std::size_t>(got);
   }
+  // Out of the OS's page cache again: a scene that does not fit in memory does not fit in the
+  // page cache either, and on a machine with RAM to spare the cache would otherwise make every
+  // read after the first a memory copy.
+  ::posix_fadvise(fd_, static_cast<off_t>(brick.offset), static_cast<off_t>(bytes), POSIX_FADV_DONTNEED);
   bytes_read_ += bytes;
   ++loads_;
   const std::span<const Vec3f> all(data);
