@@ -8,6 +8,7 @@
 #   AUTZEN_LEVELS="5 9"       sspc levels for autzen.ply (10.6M points: minutes per level)
 #   DRACO_QP="8 10 11 12 14"  Draco position quantisation bits
 #   SCANS="bunny igea dragon_scans autzen"
+#   KEEP_DIR=dir              keep each model (SCAN.lLEVEL.sspc) and its encode --json there
 # Installs what it needs (a release build, Debian's draco and time packages, python3).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -70,6 +71,11 @@ for scan in $SCANS; do
     echo "== $scan: sspc level $level" >&2
     read -r et ep < <(timed "$sspc" encode "$src" "$tmp/m.sspc" --level "$level" --force --json --quiet)
     ratio=$(python3 -c 'import json,sys; print(round(json.load(open(sys.argv[1]))["codebook_ratio"],3))' "$tmp/stdout")
+    if [ -n "${KEEP_DIR:-}" ]; then  # the models and encode statistics, for scripts/reproduce.sh
+      mkdir -p "$KEEP_DIR"
+      cp "$tmp/m.sspc" "$KEEP_DIR/$scan.l$level.sspc"
+      cp "$tmp/stdout" "$KEEP_DIR/$scan.l$level.encode.json"
+    fi
     read -r dt dp < <(timed "$sspc" decode "$tmp/m.sspc" "$tmp/d.ply" --force --quiet)
     "$sspc" eval "$src" "$tmp/d.ply" --json --quiet > "$tmp/eval.json"
     EVAL_JSON="$tmp/eval.json" row "$scan" "$points" sspc "level $level" "$(stat -c %s "$tmp/m.sspc")" "$et" "$ep" "$dt" "$dp" "$ratio"

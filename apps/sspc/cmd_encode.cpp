@@ -91,6 +91,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
         .field("normals_seconds", stats->seconds_normals)
         .field("centres_seconds", stats->seconds_centres)
         .field("codebook_seconds", stats->seconds_codebook)
+        .field("descriptors_seconds", stats->seconds_descriptors)
+        .field("clustering_seconds", stats->seconds_codebook - stats->seconds_descriptors)
         .field("write_seconds", stats->seconds_writing)
         .field("seconds", seconds)
         .field("points_per_second", rate)

@@ -1,9 +1,17 @@
 // sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
 // directly, without decoding it (SPEC step 10, paper §5).
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <map>
 #include <memory>
+#include <span>
+#include <sstream>
 #include <string>
+#include <vector>
+
+#include "core/atomic_file.hpp"
 
 #include "command.hpp"
 #include "json_writer.hpp"
@@ -22,9 +30,89 @@ struct RenderCliOptions {
   float fov = 40;
   float bandwidth = 1.5f;
   Shade shade = Shade::kLambert;
+  bool compact = true;
+  double budget_mib = 0;
+  std::string page_dir;
+  std::string camera_path;
+  int orbit = 0;
+  std::string times;
   bool force = false;
   bool json = false;
 };
+
+// One camera per line: eye x y z, target x y z, then optionally up x y z and the vertical field of
+// view in degrees; numbers separated by spaces or commas; '#' starts a comment.
+StatusOr<std::vector<Camera>> read_camera_path(const std::string& path, const Camera& defaults) {
+  std::ifstream in(path);
+  if (!in) return not_found(path + ": cannot open the camera path");
+  std::vector<Camera> cameras;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    for (char& c : line) {
+      if (c == ',' || c == '\t' || c == '\r') c = ' ';
+    }
+    std::istringstream fields(line);
+    std::vector<float> v;
+    std::string word;
+    while (fields >> word) {
+      try {
+        std::size_t used = 0;
+        v.push_back(std::stof(word, &used));
+        if (used != word.size()) throw std::invalid_argument(word);
+      } catch (...) {
+        return invalid_argument(path + ":" + std::to_string(number) + ": '" + word + "' is not a number");
+      }
+    }
+    if (v.empty()) continue;
+    if (v.size() != 6 && v.size() != 9 && v.size() != 10) {
+      return invalid_argument(path + ":" + std::to_string(number) +
+                              ": a camera is eye x y z, target x y z [, up x y z [, fov]]: 6, 9 or 10 numbers, got " +
+                              std::to_string(v.size()));
+    }
+    Camera c = defaults;
+    c.eye = Vec3f(v[0], v[1], v[2]);
+    c.target = Vec3f(v[3], v[4], v[5]);
+    if (v.size() >= 9) c.up = Vec3f(v[6], v[7], v[8]);
+    if (v.size() == 10) c.fov_degrees = v[9];
+    cameras.push_back(c);
+    if (cameras.size() > 100000) return invalid_argument(path + ": more than 100000 cameras");
+  }
+  if (cameras.empty()) return invalid_argument(path + ": no camera in the camera path");
+  return cameras;
+}
+
+// `frames` cameras on a circle around the target, at the framing camera's distance and height.
+std::vector<Camera> orbit_cameras(const Camera& start, int frames) {
+  std::vector<Camera> cameras;
+  const Vec3f up = start.up.normalized();
+  const Vec3f offset = start.eye - start.target;
+  const Vec3f along = up * up.dot(offset);
+  const Vec3f radial = offset - along;
+  const Vec3f side = up.cross(radial);
+  for (int f = 0; f < frames; ++f) {
+    const float angle = 2.0f * 3.14159265f * static_cast<float>(f) / static_cast<float>(frames);
+    Camera c = start;
+    c.eye = start.target + along + std::cos(angle) * radial + std::sin(angle) * side;
+    cameras.push_back(c);
+  }
+  return cameras;
+}
+
+// Frame f's file: OUT.png becomes OUT_0000.png, OUT_0001.png, ...
+std::string frame_path(const std::string& output, std::size_t f) {
+  const std::filesystem::path p(output);
+  char index[16];
+  std::snprintf(index, sizeof index, "_%04zu", f);
+  return (p.parent_path() / (p.stem().string() + index + p.extension().string())).string();
+}
+
+std::string default_times_path(const std::string& output) {
+  std::filesystem::path p(output);
+  return p.replace_extension(".csv").string();
+}
 
 bool parse_size(const std::string& text, int& w, int& h) {
   const auto x = text.find('x');
@@ -41,34 +129,36 @@ bool parse_size(const std::string& text, int& w, int& h) {
 }
 
 int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
-  std::error_code ec;
-  if (!o.force && std::filesystem::exists(o.output, ec)) {
-    return report_failure(invalid_argument(o.output + ": exists; pass -f/--force to overwrite it"));
-  }
   RenderOptions options;
   if (!parse_size(o.size, options.width, options.height)) {
     return report_failure(invalid_argument("--size must be WIDTHxHEIGHT, got '" + o.size + "'"));
   }
+  if (!o.camera_path.empty() && o.orbit > 0) {
+    return report_failure(invalid_argument("--camera-path and --orbit exclude each other"));
+  }
+  const bool sequence = !o.camera_path.empty() || o.orbit > 0;
+  const std::string times = o.times.empty() ? default_times_path(o.output) : o.times;
+  if (!o.force) {
+    std::error_code ec;
+    const std::string first = sequence ? frame_path(o.output, 0) : o.output;
+    for (const std::string& path : sequence ? std::vector<std::string>{first, times} : std::vector<std::string>{first}) {
+      if (std::filesystem::exists(path, ec)) {
+        return report_failure(invalid_argument(path + ": exists; pass -f/--force to overwrite it"));
+      }
+    }
+  }
   auto progress = make_progress(global);
   options.shade = o.shade;
   options.bandwidth = o.bandwidth;
-  options.progress = progress.get();
-  const auto set_camera = [&](const Box3f& bounds) {
-    options.camera = frame_bounds(bounds, o.fov);
-    if (auto v = parse_vec3(o.eye)) options.camera.eye = *v;
-    if (auto v = parse_vec3(o.target)) options.camera.target = *v;
-    if (auto v = parse_vec3(o.up)) options.camera.up = *v;
-  };
-  RenderStats stats;
-  StatusOr<Image> image = invalid_argument("nothing rendered");
+
+  // The scene, built once for every frame.
+  StatusOr<std::unique_ptr<RenderScene>> scene = invalid_argument("no scene");
   std::uint64_t points = 0;
   if (is_sspc_file(o.input)) {
     auto model = CompressedModel::open(o.input);
     if (!model.ok()) return report_failure(model.status());
-    const ModelInfo info = model->info();
-    points = info.source_points;
-    set_camera(info.bounds);
-    image = render_compressed(*model, options, &stats);
+    points = model->info().source_points;
+    scene = RenderScene::from_compressed(*model, o.bandwidth, progress.get(), o.compact);
   } else {
     ReadOptions read;
     read.progress = progress.get();
@@ -78,13 +168,82 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     normals.progress = progress.get();
     if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input + ": "));
     points = cloud->size();
-    set_camera(cloud->bounding_box());
-    image = render_point_cloud(*cloud, options, &stats);
+    if (o.budget_mib > 0) {
+      const auto budget = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
+      const std::filesystem::path dir =
+          o.page_dir.empty() ? std::filesystem::temp_directory_path() : std::filesystem::path(o.page_dir);
+      scene = RenderScene::from_point_cloud_paged(*cloud, o.bandwidth, budget, dir, progress.get());
+    } else {
+      scene = RenderScene::from_point_cloud(*cloud, o.bandwidth, progress.get());
+    }
   }
-  if (!image.ok()) return report_failure(image.status().with_context(o.input + ": "));
-  if (Status s = write_png(*image, o.output); !s.ok()) return report_failure(s);
+  if (!scene.ok()) return report_failure(scene.status().with_context(o.input + ": "));
 
-  const double rays_per_second = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
+  Camera framing = frame_bounds((*scene)->bounds(), o.fov);
+  if (auto v = parse_vec3(o.eye)) framing.eye = *v;
+  if (auto v = parse_vec3(o.target)) framing.target = *v;
+  if (auto v = parse_vec3(o.up)) framing.up = *v;
+  std::vector<Camera> cameras{framing};
+  if (!o.camera_path.empty()) {
+    auto path = read_camera_path(o.camera_path, framing);
+    if (!path.ok()) return report_failure(path.status());
+    cameras = std::move(path).value();
+  } else if (o.orbit > 0) {
+    cameras = orbit_cameras(framing, o.orbit);
+  }
+
+  std::vector<RenderStats> frames;
+  if (sequence) progress_begin(progress.get(), "render", cameras.size(), "frames");
+  std::string csv =
+      "frame,eye_x,eye_y,eye_z,target_x,target_y,target_z,render_seconds,rays,hits,evaluations,rays_per_second,"
+      "bytes_read\n";
+  for (std::size_t f = 0; f < cameras.size(); ++f) {
+    options.camera = cameras[f];
+    options.progress = cameras.size() == 1 ? progress.get() : nullptr;
+    RenderStats stats;
+    auto image = (*scene)->render(options, &stats);
+    if (!image.ok()) {
+      return report_failure(image.status().with_context(o.input + (sequence ? " frame " + std::to_string(f) : "") + ": "));
+    }
+    const std::string path = sequence ? frame_path(o.output, f) : o.output;
+    if (Status s = write_png(*image, path); !s.ok()) return report_failure(s);
+    const double rps = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
+    char row[512];
+    const Camera& c = cameras[f];
+    std::snprintf(row, sizeof row, "%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%llu,%llu,%llu,%.6g,%llu\n", f,
+                  static_cast<double>(c.eye.x()), static_cast<double>(c.eye.y()), static_cast<double>(c.eye.z()),
+                  static_cast<double>(c.target.x()), static_cast<double>(c.target.y()), static_cast<double>(c.target.z()),
+                  stats.render_seconds, static_cast<unsigned long long>(stats.rays),
+                  static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.evaluations), rps,
+                  static_cast<unsigned long long>(stats.bytes_read));
+    csv += row;
+    if (sequence) progress_advance(progress.get(), 1);
+    frames.push_back(stats);
+  }
+  if (sequence) progress_end(progress.get());
+  if (sequence) {
+    if (Status s = write_file_atomically(times, std::as_bytes(std::span(csv.data(), csv.size()))); !s.ok()) {
+      return report_failure(s);
+    }
+  }
+
+  RenderStats total;
+  std::vector<double> seconds;
+  std::uint64_t bytes = (*scene)->memory_bytes();
+  for (const RenderStats& f : frames) {
+    bytes = std::max(bytes, f.scene_bytes);
+    total.bytes_read += f.bytes_read;
+    total.pages_read += f.pages_read;
+    total.rays += f.rays;
+    total.hits += f.hits;
+    total.evaluations += f.evaluations;
+    total.render_seconds += f.render_seconds;
+    seconds.push_back(f.render_seconds);
+  }
+  std::sort(seconds.begin(), seconds.end());
+  const double median = seconds[seconds.size() / 2];
+  const double build = (*scene)->build_seconds();
+  const double rays_per_second = total.render_seconds > 0 ? static_cast<double>(total.rays) / total.render_seconds : 0;
   if (o.json) {
     JsonWriter json;
     json.begin_object()
@@ -93,21 +252,42 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         .field("points", points)
         .field("width", options.width)
         .field("height", options.height)
-        .field("rays", stats.rays)
-        .field("hits", stats.hits)
-        .field("evaluations_per_hit", stats.hits > 0 ? static_cast<double>(stats.evaluations) / static_cast<double>(stats.hits) : 0.0)
-        .field("build_seconds", stats.build_seconds)
-        .field("render_seconds", stats.render_seconds)
+        .field("frames", static_cast<std::uint64_t>(frames.size()))
+        .field("rays", total.rays)
+        .field("hits", total.hits)
+        .field("evaluations", total.evaluations)
+        .field("evaluations_per_hit", total.hits > 0 ? static_cast<double>(total.evaluations) / static_cast<double>(total.hits) : 0.0)
+        .field("build_seconds", build)
+        .field("render_seconds", total.render_seconds)
+        .field("frame_seconds_median", median)
         .field("rays_per_second", rays_per_second)
-        .field("scene_bytes", stats.scene_bytes)
-        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(stats.scene_bytes) / static_cast<double>(points) : 0.0)
-        .end_object();
+        .field("storage", is_sspc_file(o.input) ? (o.compact ? "compact" : "float") : "float")
+        .field("scene_bytes", bytes)
+        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0)
+        .field("bytes_read", total.bytes_read)
+        .field("pages_read", total.pages_read);
+    if (o.budget_mib > 0) {
+      json.field("memory_budget_bytes", static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024))
+          .field("within_budget", static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024);
+    }
+    if (sequence) {
+      json.field("times", times).key("frame_seconds").begin_array();
+      for (const RenderStats& f : frames) json.value(f.render_seconds);
+      json.end_array().key("frame_bytes_read").begin_array();
+      for (const RenderStats& f : frames) json.value(f.bytes_read);
+      json.end_array();
+    }
+    json.end_object();
     print_line(json.str());
+  } else if (sequence) {
+    std::printf("%s: %llu points -> %zu frames %s (%dx%d), build %.2f s, frame median %.3f s (%.3g rays/s), times in %s\n",
+                o.input.c_str(), static_cast<unsigned long long>(points), frames.size(), frame_path(o.output, 0).c_str(),
+                options.width, options.height, build, median, rays_per_second, times.c_str());
   } else {
     std::printf("%s: %llu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
                 o.input.c_str(), static_cast<unsigned long long>(points), o.output.c_str(), options.width, options.height,
-                static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.rays),
-                stats.build_seconds, stats.render_seconds, rays_per_second);
+                static_cast<unsigned long long>(total.hits), static_cast<unsigned long long>(total.rays), build,
+                total.render_seconds, rays_per_second);
   }
   return kExitOk;
 }
@@ -132,7 +312,24 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--shade", o->shade, "lambert, normal, depth, or codeword (a colour per code word)")
       ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case))
       ->default_str("lambert");
-  app->add_flag("-f,--force", o->force, "Overwrite an existing output file");
+  const std::map<std::string, bool> storages{{"compact", true}, {"float", false}};
+  app->add_option("--storage", o->compact,
+                  "A compressed model's code words in memory: compact (6 bytes a point) or float (24, faster)")
+      ->transform(CLI::CheckedTransformer(storages, CLI::ignore_case))
+      ->default_str("compact");
+  app->add_option("--memory-budget", o->budget_mib,
+                  "MiB a point cloud's scene may hold: its points are paged in from a file through a cache of that "
+                  "size (a compressed model is reported against it)")
+      ->check(CLI::Range(1.0, 1e7));
+  app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)");
+  app->add_option("--camera-path", o->camera_path,
+                  "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
+                  "frames go to OUT_0000.png, ... and each frame's time to a CSV")
+      ->check(CLI::ExistingFile);
+  app->add_option("--orbit", o->orbit, "Render a sequence of N frames circling the target (as --camera-path)")
+      ->check(CLI::Range(1, 100000));
+  app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)");
+  app->add_flag("-f,--force", o->force, "Overwrite existing output files");
   app->add_flag("--json", o->json, "Machine-readable statistics on stdout");
   return {app, [o, &global] { return run_render(*o, global); }};
 }

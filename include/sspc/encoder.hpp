@@ -52,7 +52,8 @@ struct EncodeStats {
   double bits_per_point = 0;
   double seconds_normals = 0;
   double seconds_centres = 0;
-  double seconds_codebook = 0;
+  double seconds_codebook = 0;     // descriptors and clustering
+  double seconds_descriptors = 0;  // ... of which gathering patches and their descriptors
   double seconds_writing = 0;
 };
 

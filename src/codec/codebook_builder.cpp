@@ -2,6 +2,7 @@
 #include "codec/codebook_builder.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <numeric>
@@ -308,10 +309,14 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   const std::size_t n = centres.size();
 
   progress_begin(progress, "patches: gather, frames, descriptors", n, "patches");
+  const auto describe_start = std::chrono::steady_clock::now();
   const Patches patches = gather_patches(points_tree, centres, o.patch_radius);
   const PatchFrames frames = describe_patches(cloud, patches, o.descriptor);
   progress_advance(progress, n);
   progress_end(progress);
+  if (stats != nullptr) {
+    stats->seconds_descriptors = std::chrono::duration<double>(std::chrono::steady_clock::now() - describe_start).count();
+  }
 
   const auto dim = static_cast<std::size_t>(o.descriptor.dimension());
   std::vector<std::uint32_t> order(n);

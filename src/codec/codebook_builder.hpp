@@ -35,6 +35,7 @@ struct CodebookStats {
   std::size_t repaired = 0;           // patches added to restore coverage after matching
   double mean_patch_points = 0;
   std::size_t codeword_points = 0;    // Σ code-word sizes
+  double seconds_descriptors = 0;     // gathering patches, their frames and descriptors
 };
 
 // `centres` in file order; `points_tree` indexes cloud.positions; cloud has unit normals.

@@ -68,6 +68,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   model.has_normals = model.has_normals && options.store_normals;
   stats.seconds_centres = build_stats.seconds_centres;
   stats.seconds_codebook = build_stats.seconds_codebook;
+  stats.seconds_descriptors = build_stats.codebook.seconds_descriptors;
 
   start = std::chrono::steady_clock::now();
   codec::QuantOptions quant;

@@ -26,6 +26,15 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// Where a code word's surface ends, as a fraction of its median support (MlsSurface). Beyond
+// its points, f extrapolates the last tangent plane out to the support radius: on a code word
+// trimmed to its instances' regions that is a lip past the region's border, which shows where
+// the surface turns away (silhouettes) and tilts the blend. At a straight edge of the data the
+// support is half the interior's; 0.08 cuts most of the lip (the bunny's image PSNR over the
+// pixels hit goes from 17.9 dB with none to 21.6 dB) and leaves no holes in the compressed model
+// of a random sampling of a sphere (0.12 does).
+constexpr float kEdgeSupport = 0.08f;
+
 // A code word's points with normals: stored ones, or PCA normals oriented to the code word's +z,
 // the mean normal of its representative (the canonical frame, FORMAT.md).
 StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::size_t c) {
@@ -37,7 +46,7 @@ StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::si
     return std::move(cloud);
   }
   NormalOptions options;
-  options.k = static_cast<int>(std::min<std::size_t>(12, cloud.size() - 1));
+  options.k = static_cast<int>(std::min<std::size_t>(24, cloud.size() - 1));
   options.k = std::max(options.k, 3);
   SSPC_RETURN_IF_ERROR(estimate_normals(cloud, options));
   for (Vec3f& n : cloud.normals) {
@@ -46,50 +55,72 @@ StatusOr<PointCloud> codeword_with_normals(const CompressedModel& model, std::si
   return std::move(cloud);
 }
 
-}  // namespace
+class CompressedScene final : public RenderScene {
+ public:
+  Status build(const CompressedModel& model, float bandwidth, Progress* progress, bool compact);
+  StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override;
+  Box3f bounds() const override { return bounds_; }
 
-StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& o, RenderStats* stats) {
-  SSPC_RETURN_IF_ERROR(render::check_options(o));
+ private:
+  float h_ = 0;
+  float sigma2_ = 0;  // 2σ² of the blending Gaussian, σ = the patch radius
+  Box3f bounds_;
+  std::vector<std::unique_ptr<render::MlsSurface>> surfaces_;  // one per code word
+  std::vector<PatchRecord> patches_;
+  std::unique_ptr<render::SphereBvh> bvh_;
+};
+
+Status CompressedScene::build(const CompressedModel& model, float bandwidth, Progress* progress, bool compact) {
+  if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
   const ModelInfo info = model.info();
   if (model.patch_count() == 0) return invalid_argument("the model has no patches");
+  const auto start = std::chrono::steady_clock::now();
+  bounds_ = info.bounds;
+  h_ = std::max(bandwidth * info.spacing, 1e-6f * info.patch_radius);
+  sigma2_ = 2.0f * info.patch_radius * info.patch_radius;
 
-  auto start = std::chrono::steady_clock::now();
   const std::size_t words = model.codeword_count();
-  std::vector<PointCloud> points(words);
+  std::vector<float> codeword_radius(words, 0.0f);
   std::vector<Status> status(words);
+  surfaces_.resize(words);
+  progress_begin(progress, "scene", words, "code words");
   parallel_for(0, words, 16, [&](std::size_t c) {
     auto cloud = codeword_with_normals(model, c);
     if (!cloud.ok()) {
       status[c] = cloud.status();
       return;
     }
-    points[c] = std::move(cloud).value();
+    for (const Vec3f& p : cloud->positions) codeword_radius[c] = std::max(codeword_radius[c], p.norm());
+    surfaces_[c] = std::make_unique<render::MlsSurface>(cloud->positions, cloud->normals, h_, kEdgeSupport,
+                                                        compact ? render::PointStorage::kCompact : render::PointStorage::kFloat);
+    progress_advance(progress, 1);
   });
+  progress_end(progress);
   for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
-  const auto h = std::max(o.bandwidth * info.spacing, 1e-6f * info.patch_radius);
-  std::vector<std::unique_ptr<render::MlsSurface>> surfaces(words);
-  parallel_for(0, words, 16, [&](std::size_t c) {
-    surfaces[c] = std::make_unique<render::MlsSurface>(points[c].positions, points[c].normals, h);
-  });
-  std::vector<PatchRecord> patches(model.patch_count());
-  std::vector<render::Sphere> spheres(patches.size());
+
   // A patch shows its code word only near its own region: the match that placed it checked the
   // code word against the patch within the coverage radius of the centre, and beyond it the
   // code word holds points kept for its other instances, which need not fit this one. Every
   // surface point is within the coverage radius of some centre, so the patches still cover it.
-  const float extent = info.coverage_radius + 2 * h;
-  for (std::size_t k = 0; k < patches.size(); ++k) {
-    SSPC_ASSIGN_OR_RETURN(patches[k], model.patch(k));
-    float radius = 0;
-    for (const Vec3f& p : points[patches[k].codeword].positions) radius = std::max(radius, p.norm());
-    spheres[k] = {patches[k].translation, std::min(radius + 3 * h, extent)};
+  const float extent = info.coverage_radius + 2 * h_;
+  patches_.resize(model.patch_count());
+  std::vector<render::Sphere> spheres(patches_.size());
+  for (std::size_t k = 0; k < patches_.size(); ++k) {
+    SSPC_ASSIGN_OR_RETURN(patches_[k], model.patch(k));
+    const std::uint32_t c = patches_[k].codeword;
+    spheres[k] = {patches_[k].translation, std::min(codeword_radius[c] + surfaces_[c]->support_radius(), extent)};
   }
-  const render::SphereBvh bvh(spheres);
-  const double build_seconds = seconds_since(start);
+  bvh_ = std::make_unique<render::SphereBvh>(std::move(spheres));
+  build_seconds_ = seconds_since(start);
+  memory_bytes_ = bvh_->memory_bytes() + patches_.size() * sizeof(PatchRecord);
+  for (const auto& s : surfaces_) memory_bytes_ += s->memory_bytes();
+  return Status();
+}
 
+StatusOr<Image> CompressedScene::render(const RenderOptions& o, RenderStats* stats) const {
+  SSPC_RETURN_IF_ERROR(render::check_options(o));
   const render::PinholeCamera camera(o.camera, o.width, o.height);
-  const float sigma2 = 2.0f * info.patch_radius * info.patch_radius;
-  const float window = 2 * h;  // hits this close to the first belong to the same surface
+  const float window = 2 * h_;  // hits this close to the first belong to the same surface
   struct Interval {
     std::uint32_t patch;
     float t0, t1;
@@ -97,6 +128,7 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
   struct Hit {
     float t;
     Vec3f normal;
+    float support;
     std::uint32_t patch;
   };
   Image image = render::trace_image(
@@ -107,8 +139,8 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
         const Vec3f& eye = camera.eye();
         const Vec3f d = camera.direction(x, y);
         intervals.clear();
-        bvh.intersect(eye, d, std::numeric_limits<float>::infinity(),
-                      [&](std::uint32_t k, float t0, float t1) { intervals.push_back({k, t0, t1}); });
+        bvh_->intersect(eye, d, std::numeric_limits<float>::infinity(),
+                        [&](std::uint32_t k, float t0, float t1) { intervals.push_back({k, t0, t1}); });
         std::sort(intervals.begin(), intervals.end(), [](const Interval& a, const Interval& b) {
           return a.t0 < b.t0 || (a.t0 == b.t0 && a.patch < b.patch);
         });
@@ -116,14 +148,14 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
         float best = std::numeric_limits<float>::infinity();
         for (const Interval& iv : intervals) {
           if (iv.t0 > best + window) break;
-          const PatchRecord& p = patches[iv.patch];
+          const PatchRecord& p = patches_[iv.patch];
           const Eigen::Matrix3f codeword_from_world = p.rotation.transpose();
           const Vec3f o_local = codeword_from_world * (eye - p.translation);
           const Vec3f d_local = codeword_from_world * d;
-          const auto hit = surfaces[p.codeword]->intersect(o_local, d_local, iv.t0, std::min(iv.t1, best + window));
+          const auto hit = surfaces_[p.codeword]->intersect(o_local, d_local, iv.t0, std::min(iv.t1, best + window));
           if (!hit) continue;
           evaluations += static_cast<std::uint64_t>(hit->evaluations);
-          found.push_back({hit->t, p.rotation * hit->normal, iv.patch});
+          found.push_back({hit->t, p.rotation * hit->normal, hit->support, iv.patch});
           best = std::min(best, hit->t);
         }
         if (found.empty()) return false;
@@ -134,7 +166,11 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
         for (const Hit& f : found) {
           if (f.t > best + window) continue;
           const Vec3f xw = eye + f.t * d;
-          const float w = std::exp(-(xw - patches[f.patch].translation).squaredNorm() / sigma2);
+          // The paper's Gaussian on the distance to the patch centre, times the support of the
+          // patch's surface at the hit: where a code word's points end (the border of the
+          // region it was trimmed to), its surface is an extrapolation resting on few points,
+          // and the patch whose interior it is takes over smoothly.
+          const float w = f.support * std::exp(-(xw - patches_[f.patch].translation).squaredNorm() / sigma2_);
           sum_w += w;
           sum_t += w * f.t;
           sum_n += w * f.normal;
@@ -146,16 +182,30 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
         if (!(sum_w > 0) || !(sum_n.squaredNorm() > 0)) return false;
         Vec3f n = sum_n.normalized();
         if (n.dot(d) > 0) n = -n;
-        frame.set(x, y, sum_t / sum_w, n, patches[heaviest].codeword);
+        frame.set(x, y, sum_t / sum_w, n, patches_[heaviest].codeword);
         return true;
       },
       stats);
   if (stats != nullptr) {
-    stats->build_seconds = build_seconds;
-    stats->scene_bytes = bvh.memory_bytes() + patches.size() * sizeof(PatchRecord);
-    for (const PointCloud& c : points) stats->scene_bytes += c.size() * 2 * sizeof(Vec3f);
+    stats->build_seconds = build_seconds_;
+    stats->scene_bytes = memory_bytes_;
   }
   return image;
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_compressed(const CompressedModel& model, float bandwidth,
+                                                                    Progress* progress, bool compact) {
+  auto scene = std::make_unique<CompressedScene>();
+  SSPC_RETURN_IF_ERROR(scene->build(model, bandwidth, progress, compact));
+  return std::unique_ptr<RenderScene>(std::move(scene));
+}
+
+StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& o, RenderStats* stats) {
+  SSPC_RETURN_IF_ERROR(render::check_options(o));
+  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_compressed(model, o.bandwidth, o.progress, o.compact));
+  return scene->render(o, stats);
 }
 
 }  // namespace sspc

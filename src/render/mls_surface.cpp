@@ -1,5 +1,6 @@
 #include "render/mls_surface.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -7,55 +8,279 @@ namespace sspc::render {
 
 namespace {
 
-// Neighbours a single evaluation averages over: enough for a smooth surface at h ≈ the
-// spacing (weights fall to e^−4 at 2h), few enough to stay fast.
-constexpr std::size_t kNeighbours = 16;
-// Refinement steps once a crossing is bracketed.
+// Support radius in bandwidths: the Gaussian is e^−6.25 ≈ 0.2% of its peak there.
+constexpr float kSupport = 2.5f;
+constexpr std::size_t kSupportSamples = 64;
+// Refinement steps once a crossing is bracketed, and the precision they stop at, in
+// bandwidths: far below a pixel's footprint at any useful zoom.
 constexpr int kMaxIterations = 12;
+constexpr float kTolerance = 1e-3f;
+// The grid never has more cells than this many per point (plus a few for tiny sets): cells grow
+// beyond the support radius for sparse, spread-out points instead, which costs more candidates
+// per query but bounds the memory.
+constexpr double kMaxCellsPerPoint = 4;
+constexpr double kMinCells = 64;
 
 }  // namespace
 
-MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth)
-    : points_(points), normals_(normals), h_(bandwidth), reach_(3.0f * bandwidth), tree_(points) {}
+MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
+                       float edge_support, PointStorage storage)
+    : h_(bandwidth),
+      radius_(kSupport * bandwidth),
+      inv_h2_(1.0f / (bandwidth * bandwidth)),
+      floor_w_(std::exp(-kSupport * kSupport)),
+      compact_(storage == PointStorage::kCompact && points.size() < 65536),
+      size_(points.size()),
+      cell_{kSupport * bandwidth, kSupport * bandwidth, kSupport * bandwidth},
+      inv_cell_{1, 1, 1},
+      origin_(Vec3f::Zero()) {
+  // The weight as a function of d²/r², tabulated: exp costs more than the rest of a neighbour's
+  // share of an evaluation, and 256 linear pieces follow the Gaussian to within 2·10⁻⁵.
+  for (std::size_t k = 0; k <= kTable; ++k) {
+    const float u = static_cast<float>(k) / static_cast<float>(kTable);
+    weight_table_[k] = std::max(std::exp(-u * kSupport * kSupport) - floor_w_, 0.0f);
+  }
+  weight_table_[kTable + 1] = 0;
+  const std::size_t n = points.size();
+  if (n == 0) {
+    start_.assign(2, 0);
+    start16_.assign(2, 0);
+    near_.assign(1, 0);
+    for (int a = 0; a < 3; ++a) inv_cell_[a] = 1.0f / cell_[a];
+    return;
+  }
+  Box3f box;
+  for (const Vec3f& p : points) box.extend(p);
+  origin_ = box.min() - Vec3f::Constant(radius_);
+  const Vec3f extent = box.max() - box.min() + Vec3f::Constant(2 * radius_);
+  if (compact_) cell_[2] = extent.z();  // one layer
+  const double budget = std::max(kMaxCellsPerPoint * static_cast<double>(n), kMinCells);
+  for (;;) {
+    double cells = 1;
+    for (int a = 0; a < 3; ++a) cells *= std::max(1.0, std::ceil(static_cast<double>(extent[a] / cell_[a])));
+    if (cells <= budget) break;
+    for (int a = 0; a < (compact_ ? 2 : 3); ++a) cell_[a] *= 1.25f;
+  }
+  for (int a = 0; a < 3; ++a) {
+    dims_[a] = std::max(1, static_cast<int>(std::ceil(extent[a] / cell_[a])));
+    last_[a] = static_cast<float>(dims_[a] - 1);
+    inv_cell_[a] = 1.0f / cell_[a];
+  }
+  const auto total = static_cast<std::size_t>(dims_[0]) * static_cast<std::size_t>(dims_[1]) *
+                     static_cast<std::size_t>(dims_[2]);
 
-bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n) const {
-  float nearest = 0;
-  return evaluate(x, a, n, nearest);
+  // Counting sort of the points by cell, stable: the same input gives the same order.
+  std::vector<std::uint32_t> cell_of(n);
+  start_.assign(total + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3f& p = points[i];
+    const auto c = static_cast<std::uint32_t>(
+        cell_index(cell_coordinate(p.x(), 0), cell_coordinate(p.y(), 1), cell_coordinate(p.z(), 2)));
+    cell_of[i] = c;
+    ++start_[c + 1];
+  }
+  for (std::size_t c = 0; c < total; ++c) start_[c + 1] += start_[c];
+  std::vector<std::uint32_t> next(start_.begin(), start_.end() - 1);
+  if (compact_) {
+    qx_.resize(n), qy_.resize(n), qz_.resize(n), qnx_.resize(n), qny_.resize(n), qnz_.resize(n);
+  } else {
+    x_.resize(n), y_.resize(n), z_.resize(n), nx_.resize(n), ny_.resize(n), nz_.resize(n);
+  }
+  const auto to_u8 = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+  const auto to_s8 = [](float v) { return static_cast<std::int8_t>(std::lround(std::clamp(v, -1.0f, 1.0f) * 127.0f)); };
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t j = next[cell_of[i]]++;
+    const Vec3f& p = points[i];
+    const Vec3f& nn = normals[i];
+    if (compact_) {
+      const int ix = cell_coordinate(p.x(), 0), iy = cell_coordinate(p.y(), 1), iz = cell_coordinate(p.z(), 2);
+      const Vec3f local = (p - cell_corner(ix, iy, iz)).cwiseProduct(Vec3f(inv_cell_[0], inv_cell_[1], inv_cell_[2]));
+      qx_[j] = to_u8(local.x()), qy_[j] = to_u8(local.y()), qz_[j] = to_u8(local.z());
+      qnx_[j] = to_s8(nn.x()), qny_[j] = to_s8(nn.y()), qnz_[j] = to_s8(nn.z());
+    } else {
+      x_[j] = p.x(), y_[j] = p.y(), z_[j] = p.z();
+      nx_[j] = nn.x(), ny_[j] = nn.y(), nz_[j] = nn.z();
+    }
+  }
+  if (compact_) {
+    // Within each column of cells, points by height, so that an evaluation takes only the run
+    // within r of its height.
+    std::vector<std::uint32_t> order;
+    for (std::size_t c = 0; c < total; ++c) {
+      const std::uint32_t b = start_[c], e = start_[c + 1];
+      order.resize(e - b);
+      for (std::uint32_t j = b; j < e; ++j) order[j - b] = j;
+      std::stable_sort(order.begin(), order.end(), [&](std::uint32_t u, std::uint32_t v) { return qz_[u] < qz_[v]; });
+      const auto permute = [&](auto& values) {
+        const auto copy = std::vector<typename std::decay_t<decltype(values)>::value_type>(
+            values.begin() + b, values.begin() + e);
+        for (std::uint32_t k = 0; k < e - b; ++k) values[b + k] = copy[order[k] - b];
+      };
+      permute(qx_), permute(qy_), permute(qz_), permute(qnx_), permute(qny_), permute(qnz_);
+    }
+    start16_.assign(start_.begin(), start_.end());
+    start_ = {};
+  }
+
+  // A cell is near when some point lies within r of its box: only there can the surface be.
+  // Such points are in the cell or in cells that the point's r-box overlaps.
+  near_.assign(total / 64 + 1, 0);
+  const float r2 = radius_ * radius_;
+  for_each_point([&](std::uint32_t, const Vec3f& p) {
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = cell_coordinate(p[a] - radius_, a);
+      hi[a] = cell_coordinate(p[a] + radius_, a);
+    }
+    for (int iz = lo[2]; iz <= hi[2]; ++iz) {
+      for (int iy = lo[1]; iy <= hi[1]; ++iy) {
+        for (int ix = lo[0]; ix <= hi[0]; ++ix) {
+          const Vec3f below = cell_corner(ix, iy, iz) - p;
+          const Vec3f above = p - cell_corner(ix + 1, iy + 1, iz + 1);
+          const float d2 = below.cwiseMax(above).cwiseMax(0.0f).squaredNorm();  // p to the cell's box
+          if (d2 < r2) {
+            const std::size_t c = cell_index(ix, iy, iz);
+            near_[c >> 6] |= std::uint64_t{1} << (c & 63);
+          }
+        }
+      }
+    }
+  });
+
+  // The support at the points themselves, on a sample of them: its median is what the interior
+  // of the surface rests on, and a fraction of it is where the surface ends.
+  if (!(edge_support > 0)) return;
+  const std::size_t stride = std::max<std::size_t>(1, n / kSupportSamples);
+  std::vector<float> samples;
+  for_each_point([&](std::uint32_t j, const Vec3f& p) {
+    if (j % stride != 0) return;
+    Vec3f a, nn;
+    float support = 0;
+    if (evaluate(p, a, nn, support)) samples.push_back(support);
+  });
+  if (!samples.empty()) {
+    std::nth_element(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2), samples.end());
+    min_support_ = edge_support * samples[samples.size() / 2];
+  }
 }
 
-bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& nearest) const {
-  std::uint32_t idx[kNeighbours];
-  float d2[kNeighbours];
-  const std::size_t found = tree_.knn(x, kNeighbours, idx, d2);
-  nearest = found == 0 ? std::numeric_limits<float>::infinity() : std::sqrt(d2[0]);
-  if (found == 0 || d2[0] > reach_ * reach_) return false;
-  const float inv_h2 = 1.0f / (h_ * h_);
-  Vec3f sum_p = Vec3f::Zero(), sum_n = Vec3f::Zero();
-  float sum_w = 0;
-  for (std::size_t j = 0; j < found; ++j) {
-    // Relative to the nearest point's weight, so that far queries do not underflow to 0/0.
-    const float w = std::exp(-(d2[j] - d2[0]) * inv_h2);
-    sum_p += w * points_[idx[j]];
-    sum_n += w * normals_[idx[j]];
-    sum_w += w;
+template <typename Visit>
+void MlsSurface::for_each_point(Visit&& visit) const {
+  for (int iz = 0; iz < dims_[2]; ++iz) {
+    for (int iy = 0; iy < dims_[1]; ++iy) {
+      for (int ix = 0; ix < dims_[0]; ++ix) {
+        const std::size_t c = cell_index(ix, iy, iz);
+        const Vec3f corner = cell_corner(ix, iy, iz);
+        for (std::uint32_t j = cell_begin(c); j < cell_begin(c + 1); ++j) {
+          if (compact_) {
+            visit(j, corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f), qz_[j] * (cell_[2] / 255.0f)));
+          } else {
+            visit(j, Vec3f(x_[j], y_[j], z_[j]));
+          }
+        }
+      }
+    }
   }
-  a = sum_p / sum_w;
-  n = sum_n;
+}
+
+std::size_t MlsSurface::memory_bytes() const {
+  const std::size_t points = compact_ ? 6 * size_ : 6 * size_ * sizeof(float);
+  return points + start_.size() * sizeof(std::uint32_t) + start16_.size() * sizeof(std::uint16_t) +
+         near_.size() * sizeof(std::uint64_t);
+}
+
+bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) const {
+  const float r2 = radius_ * radius_;
+  const float to_table = static_cast<float>(kTable) / r2;
+  const int x0 = cell_coordinate(x.x() - radius_, 0), x1 = cell_coordinate(x.x() + radius_, 0);
+  const int y0 = cell_coordinate(x.y() - radius_, 1), y1 = cell_coordinate(x.y() + radius_, 1);
+  float sw = 0, spx = 0, spy = 0, spz = 0, snx = 0, sny = 0, snz = 0;
+  // The weight at squared distance d2 < r², interpolated in the table of the lowered Gaussian.
+  const auto weight = [&](float d2) {
+    const float u = d2 * to_table;
+    const auto k = static_cast<std::size_t>(u);
+    return weight_table_[k] + (u - static_cast<float>(k)) * (weight_table_[k + 1] - weight_table_[k]);
+  };
+  if (compact_) {
+    const float sx = cell_[0] / 255.0f, sy = cell_[1] / 255.0f, sz = cell_[2] / 255.0f;
+    // The heights within r of x's, in the columns' 255ths (points are sorted by height).
+    const float z_lo = (x.z() - radius_ - origin_.z()) / sz, z_hi = (x.z() + radius_ - origin_.z()) / sz;
+    if (z_hi < 0 || z_lo > 255) return false;
+    const auto q_lo = static_cast<std::uint8_t>(std::max(z_lo, 0.0f));
+    const auto q_hi = static_cast<std::uint8_t>(std::min(z_hi, 255.0f));
+    for (int iy = y0; iy <= y1; ++iy) {
+      for (int ix = x0; ix <= x1; ++ix) {
+        const std::size_t c = cell_index(ix, iy, 0);
+        const Vec3f corner = cell_corner(ix, iy, 0);
+        const std::uint32_t end = start16_[c + 1];
+        std::uint32_t j = start16_[c];
+        while (j < end && qz_[j] < q_lo) ++j;
+        const Vec3f rel = corner - x;
+        for (; j < end && qz_[j] <= q_hi; ++j) {
+          const float dx = rel.x() + qx_[j] * sx, dy = rel.y() + qy_[j] * sy, dz = rel.z() + qz_[j] * sz;
+          const float d2 = dx * dx + dy * dy + dz * dz;
+          if (d2 >= r2) continue;
+          // Normals in 127ths: the mean normal is normalised by the caller, so the scale drops
+          // out. Positions are summed relative to x, which keeps their precision.
+          const float w = weight(d2);
+          sw += w;
+          spx += w * dx, spy += w * dy, spz += w * dz;
+          snx += w * qnx_[j], sny += w * qny_[j], snz += w * qnz_[j];
+        }
+      }
+    }
+  } else {
+    const int z0 = cell_coordinate(x.z() - radius_, 2), z1 = cell_coordinate(x.z() + radius_, 2);
+    for (int iz = z0; iz <= z1; ++iz) {
+      for (int iy = y0; iy <= y1; ++iy) {
+        // Cells x0..x1 of one row are one contiguous run of points.
+        const std::uint32_t end = start_[cell_index(x1, iy, iz) + 1];
+        for (std::uint32_t j = start_[cell_index(x0, iy, iz)]; j < end; ++j) {
+          const float dx = x_[j] - x.x(), dy = y_[j] - x.y(), dz = z_[j] - x.z();
+          const float d2 = dx * dx + dy * dy + dz * dz;
+          if (d2 >= r2) continue;
+          const float w = weight(d2);
+          sw += w;
+          spx += w * dx, spy += w * dy, spz += w * dz;
+          snx += w * nx_[j], sny += w * ny_[j], snz += w * nz_[j];
+        }
+      }
+    }
+  }
+  if (!(sw > min_support_)) return false;
+  a = x + Vec3f(spx, spy, spz) / sw;
+  n = Vec3f(snx, sny, snz);
+  support = sw;
   return n.squaredNorm() > 0;
 }
 
 std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, float t_min,
                                                 float t_max) const {
-  if (tree_.size() == 0) return std::nullopt;
+  if (size_ == 0) return std::nullopt;
+  // Clip to the grid: beyond it no point is within reach.
+  for (int k = 0; k < 3; ++k) {
+    const float lo = origin_[k], hi = origin_[k] + static_cast<float>(dims_[k]) * cell_[k];
+    if (d[k] == 0) {
+      if (o[k] < lo || o[k] > hi) return std::nullopt;
+      continue;
+    }
+    const float inv = 1.0f / d[k];
+    float near = (lo - o[k]) * inv, far = (hi - o[k]) * inv;
+    if (near > far) std::swap(near, far);
+    t_min = std::max(t_min, near);
+    t_max = std::min(t_max, far);
+  }
+  if (!(t_min <= t_max)) return std::nullopt;
+
   SurfaceHit hit;
+  Vec3f a, n;
+  float support = 0;
   // The signed distance to the local plane, f(x) = n(x)·(x − a(x)), positive on the side the
   // normals face; false where the surface is undefined.
-  Vec3f a, n;
-  float nearest = 0;
   const auto f_at = [&](float t, float& f) {
     ++hit.evaluations;
     const Vec3f x = o + t * d;
-    if (!evaluate(x, a, n, nearest)) return false;
+    if (!evaluate(x, a, n, support)) return false;
     n.normalize();
     f = n.dot(x - a);
     return true;
@@ -63,23 +288,24 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
   float t = t_min;
   bool have_previous = false;
   float t_previous = 0, f_previous = 0;
-  bool near_points = false;  // the last sample had a point within reach
   while (t <= t_max) {
-    if (!near_points) {
-      // In empty space a nearest-point query is enough to take the next step.
-      float d2 = 0;
-      tree_.nearest(o + t * d, &d2);
-      nearest = std::sqrt(d2);
-      if (nearest > reach_) {
-        t += std::max(nearest - reach_, 0.25f * h_);
-        continue;
+    const Vec3f x = o + t * d;
+    int c[3];
+    for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
+    if (!near(cell_index(c[0], c[1], c[2]))) {
+      // No point within reach anywhere in this cell: leave it in one step.
+      float exit = std::numeric_limits<float>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        if (d[k] > 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k] + 1) * cell_[k] - o[k]) / d[k]);
+        if (d[k] < 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k]) * cell_[k] - o[k]) / d[k]);
       }
+      t = std::max(exit, t) + 1e-3f * radius_;
+      have_previous = false;
+      continue;
     }
     float f = 0;
-    near_points = f_at(t, f);
-    if (!near_points) {
-      // No point within reach: the surface cannot be nearer than nearest − reach.
-      t += std::max(nearest - reach_, 0.25f * h_);
+    if (!f_at(t, f)) {
+      t += 0.5f * h_;
       have_previous = false;
       continue;
     }
@@ -88,12 +314,14 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
       // with the Illinois rule (the end that stays is halved), a handful of evaluations.
       float lo = t_previous, f_lo = f_previous, hi = t, f_hi = f;
       float s = hi;
-      int kept = 0;  // which end stayed last: −1 lo, +1 hi
+      bool at_s = true;  // a, n and support were last evaluated at s
+      int kept = 0;      // which end stayed last: −1 lo, +1 hi
       for (int it = 0; it < kMaxIterations; ++it) {
         s = lo - f_lo * (hi - lo) / (f_hi - f_lo);
         float f_s = 0;
-        if (!f_at(s, f_s)) break;
-        if (std::abs(f_s) < 1e-5f * h_ || hi - lo < 1e-5f * h_) break;
+        at_s = f_at(s, f_s);
+        if (!at_s) break;
+        if (std::abs(f_s) < kTolerance * h_ || hi - lo < kTolerance * h_) break;
         if ((f_s > 0) == (f_lo > 0)) {
           lo = s;
           f_lo = f_s;
@@ -106,10 +334,10 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
           kept = -1;
         }
       }
-      float f_s = 0;
-      if (s >= t_min && s <= t_max && f_at(s, f_s)) {
+      if (at_s && s >= t_min && s <= t_max) {
         hit.t = s;
         hit.normal = n.dot(d) > 0 ? Vec3f(-n) : n;
+        hit.support = support;
         return hit;
       }
     }
@@ -118,8 +346,9 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     f_previous = f;
     // At least half the bandwidth, and up to 90% of the distance to the local plane (along the
     // ray the plane is at least that far): a surface is found unless two crossings lie closer
-    // than the step.
+    // than the step. The last sample is at t_max, so a crossing just before it is not lost.
     t += std::max(0.5f * h_, 0.9f * std::abs(f));
+    if (t > t_max && t_previous < t_max) t = t_max;
   }
   return std::nullopt;
 }

@@ -21,20 +21,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The ray's parameter interval inside `box` (slab test); empty when it misses.
-bool clip_to_box(const Vec3f& o, const Vec3f& d, const Box3f& box, float& t0, float& t1) {
-  t0 = 0;
-  t1 = std::numeric_limits<float>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    const float inv = 1.0f / d[a];
-    float near = (box.min()[a] - o[a]) * inv, far = (box.max()[a] - o[a]) * inv;
-    if (near > far) std::swap(near, far);
-    t0 = std::max(t0, near);
-    t1 = std::min(t1, far);
-  }
-  return t0 <= t1;
-}
-
 }  // namespace
 
 Camera frame_bounds(const Box3f& bounds, float fov_degrees) {
@@ -50,40 +36,69 @@ Camera frame_bounds(const Box3f& bounds, float fov_degrees) {
   return c;
 }
 
-StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& o, RenderStats* stats) {
-  SSPC_RETURN_IF_ERROR(render::check_options(o));
+namespace {
+
+class PointCloudScene final : public RenderScene {
+ public:
+  PointCloudScene(const PointCloud& cloud, float h)
+      : surface_(cloud.positions, cloud.normals, h), bounds_(cloud.bounding_box()) {}
+
+  StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override {
+    SSPC_RETURN_IF_ERROR(render::check_options(o));
+    const render::PinholeCamera camera(o.camera, o.width, o.height);
+    Image image = render::trace_image(
+        o, camera,
+        [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
+          const auto hit = surface_.intersect(camera.eye(), camera.direction(x, y), 0,
+                                              std::numeric_limits<float>::infinity());
+          if (!hit) return false;
+          evaluations += static_cast<std::uint64_t>(hit->evaluations);
+          frame.set(x, y, hit->t, hit->normal, 0);
+          return true;
+        },
+        stats);
+    if (stats != nullptr) {
+      stats->build_seconds = build_seconds_;
+      stats->scene_bytes = memory_bytes_;
+    }
+    return image;
+  }
+
+  Box3f bounds() const override { return bounds_; }
+
+  void set_build(double seconds) {
+    build_seconds_ = seconds;
+    memory_bytes_ = surface_.memory_bytes();
+  }
+
+ private:
+  render::MlsSurface surface_;
+  Box3f bounds_;
+};
+
+}  // namespace
+
+StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud(const PointCloud& cloud, float bandwidth,
+                                                                     Progress* progress) {
   SSPC_RETURN_IF_ERROR(cloud.validate());
   if (cloud.empty()) return invalid_argument("the cloud is empty");
   if (!cloud.has_normals()) return invalid_argument("rendering needs normals (estimate them first)");
-
-  auto start = std::chrono::steady_clock::now();
+  if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
+  const auto start = std::chrono::steady_clock::now();
+  progress_begin(progress, "scene", 1, "surfaces");
   const double spacing = std::max(nominal_spacing(cloud), 1e-30);
-  const auto h = static_cast<float>(static_cast<double>(o.bandwidth) * spacing);
-  const render::MlsSurface surface(cloud.positions, cloud.normals, h);
-  Box3f box = cloud.bounding_box();
-  box.extend(box.min() - Vec3f::Constant(3 * h));
-  box.extend(box.max() + Vec3f::Constant(3 * h));
-  const double build_seconds = seconds_since(start);
+  const auto h = static_cast<float>(static_cast<double>(bandwidth) * spacing);
+  auto scene = std::make_unique<PointCloudScene>(cloud, h);
+  scene->set_build(seconds_since(start));
+  progress_advance(progress, 1);
+  progress_end(progress);
+  return std::unique_ptr<RenderScene>(std::move(scene));
+}
 
-  const render::PinholeCamera camera(o.camera, o.width, o.height);
-  Image image = render::trace_image(
-      o, camera,
-      [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
-        const Vec3f d = camera.direction(x, y);
-        float t0 = 0, t1 = 0;
-        if (!clip_to_box(camera.eye(), d, box, t0, t1)) return false;
-        const auto hit = surface.intersect(camera.eye(), d, t0, t1);
-        if (!hit) return false;
-        evaluations += static_cast<std::uint64_t>(hit->evaluations);
-        frame.set(x, y, hit->t, hit->normal, 0);
-        return true;
-      },
-      stats);
-  if (stats != nullptr) {
-    stats->build_seconds = build_seconds;
-    stats->scene_bytes = cloud.size() * 2 * sizeof(Vec3f);
-  }
-  return image;
+StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& o, RenderStats* stats) {
+  SSPC_RETURN_IF_ERROR(render::check_options(o));
+  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_point_cloud(cloud, o.bandwidth, o.progress));
+  return scene->render(o, stats);
 }
 
 }  // namespace sspc

@@ -1,8 +1,17 @@
 // A bounding volume hierarchy over spheres, built with the surface area heuristic (binned, as in
 // Wald 2007, "On fast construction of SAH-based bounding volume hierarchies"): the acceleration
-// structure of the compressed renderer, one sphere per patch (paper §5). Own code rather than
-// Embree's user geometry: the renderer needs every sphere a ray meets with its entry and exit,
-// in one pass, and a sphere test is all a leaf does.
+// structure of the compressed renderer, one sphere per patch (paper §5).
+//
+// Own code rather than Embree 3's user geometry, measured by bench/bvh_bench.cpp (dragon_scans at
+// the default level: 7221 patch spheres, the 1024² primary rays of the framing camera, one
+// thread, every sphere a ray meets collected; Embree's intersect callback records each hit
+// without committing it, so traversal goes on). For single rays, which is how the renderer
+// traces, the two are even: 9.5 against 9.4 Mrays/s over the whole image, 1.9 against 2.1 over
+// the 17% of rays that meet a sphere (8.8 spheres each): a leaf is nothing but a sphere test,
+// which Embree reaches through an indirect call to the user callback. This tree builds 2.4x
+// faster (1.5 against 3.6 ms; 0.62 against 0.71 s for a million spheres), needs no dependency,
+// and its traversal is under a tenth of a frame. Embree's 8-ray packets (rtcIntersect8) reach
+// 25.7 Mrays/s: the case for Embree, should the renderer trace coherent packets.
 #pragma once
 
 #include <cmath>

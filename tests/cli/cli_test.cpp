@@ -274,5 +274,45 @@ TEST(Cli, RenderWritesAPng) {
   EXPECT_EQ(slurp(one).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
 }
 
+// render --camera-path renders one frame per camera line, OUT_0000.png on, and writes each
+// frame's time to a CSV; a malformed line is refused with its line number.
+TEST(Cli, RenderCameraPathWritesFramesAndTimes) {
+  test::TempDir dir;
+  const auto path = dir.path() / "path.txt";
+  {
+    std::ofstream out(path);
+    out << "# eye, target [, up [, fov]]\n"
+        << "0 0.1 0.4  -0.02 0.1 0\n"
+        << "0.3,0.1,0.3, -0.02,0.1,0, 0,1,0\n"
+        << "\n"
+        << "0.4 0.1 0 -0.02 0.1 0 0 1 0 30\n";
+  }
+  const std::string frames = (dir.path() / "f.png").string();
+  const CliRun run = sspc(dir, "render " + bunny() + " -o " + frames + " --size 32x24 --camera-path " + path.string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* name : {"f_0000.png", "f_0001.png", "f_0002.png"}) {
+    EXPECT_EQ(slurp(dir.path() / name).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "f_0003.png"));
+  std::ifstream csv(dir.path() / "f.csv");
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(csv, line)) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[0].substr(0, 6), "frame,");
+  EXPECT_EQ(lines[3].substr(0, 2), "2,");
+  EXPECT_NE(run.out.find("\"frames\":3"), std::string::npos) << run.out;
+  // Existing frames are not overwritten without --force.
+  EXPECT_EQ(sspc(dir, "render " + bunny() + " -o " + frames + " --size 32x24 --camera-path " + path.string()).exit_code, 1);
+
+  {
+    std::ofstream out(path);
+    out << "0 0.1 0.4 -0.02 0.1 0\n0 0.1 0.4 oops 0.1 0\n";
+  }
+  const CliRun bad = sspc(dir, "render " + bunny() + " -o " + frames + " -f --size 32x24 --camera-path " + path.string());
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find(":2:"), std::string::npos) << bad.err;
+}
+
 }  // namespace
 }  // namespace sspc

@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# Primary-ray rendering benchmark (issue: the renderer, item 6): each scan rendered at 1024×1024
+# on 2 threads from the automatic camera, uncompressed (one MLS surface over its points) and
+# compressed (the .sspc model at the default level, rendered directly): scene build seconds,
+# Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per original point
+# and peak memory. Writes docs/results/render_bench.csv and its table in docs/RESULTS.md.
+#
+# Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
+#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="5"   STORAGES="compact float"
+#   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
+# Installs what it needs (a release build, Debian's time package, python3).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data="${1:-../shared/data}"
+SCANS="${SCANS:-bunny dragon_scans autzen}"
+SIZE="${SIZE:-1024x1024}"
+THREADS="${THREADS:-2}"
+LEVELS="${LEVELS:-5}"
+STORAGES="${STORAGES:-compact float}"
+WORK="${WORK:-/tmp/sspc_bench_render}"
+if [ ! -d "$data" ]; then
+  echo "bench_render: no data directory $data; nothing to measure" >&2
+  exit 0
+fi
+
+bash scripts/install_deps.sh
+need=()
+[ -x /usr/bin/time ] || need+=(time)
+command -v python3 >/dev/null || need+=(python3)
+if ((${#need[@]})); then
+  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
+  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
+fi
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build --target sspc_cli >/dev/null
+sspc="$PWD/build/sspc"
+mkdir -p "$WORK" docs/results
+csv=docs/results/render_bench.csv
+echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib" > "$csv"
+
+# One configuration: three renders, the median render time; build time and memory of the first.
+measure() {  # scan model-label input [render options]
+  local scan="$1" label="$2" input="$3" runs=()
+  shift 3
+  for r in 1 2 3; do
+    /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" \
+      -o "$WORK/frame.png" -f --size "$SIZE" --json "$@" > "$WORK/run$r.json"
+    runs+=("$WORK/run$r.json")
+    rss_kib[$r]=$(tail -1 "$WORK/rss")
+  done
+  python3 - "$scan" "$label" "$SIZE" "$THREADS" "${rss_kib[1]}" "${runs[@]}" >> "$csv" <<'EOF'
+import json, sys
+scan, label, size, threads, rss = sys.argv[1:6]
+runs = [json.load(open(p)) for p in sys.argv[6:]]
+runs.sort(key=lambda r: r["render_seconds"])
+m = runs[len(runs) // 2]
+print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
+      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["hits"]},{m["evaluations_per_hit"]:.1f},'
+      f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f}')
+EOF
+  tail -1 "$csv"
+}
+
+declare -a rss_kib
+for scan in $SCANS; do
+  src="$data/$scan.ply"
+  [ -f "$src" ] || { echo "bench_render: $src missing, skipped" >&2; continue; }
+  # The uncompressed scene needs normals: estimated once (scans that have them keep theirs).
+  plain="$WORK/$scan.normals.ply"
+  [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
+  measure "$scan" uncompressed "$plain"
+  for level in $LEVELS; do
+    model="$WORK/$scan.l$level.sspc"
+    [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
+    for storage in $STORAGES; do
+      measure "$scan" "compressed-l$level-$storage" "$model" --storage "$storage"
+    done
+  done
+done
+
+echo
+python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" <<'EOF'
+import csv, datetime, os, sys
+path, results, commit, cores = sys.argv[1:]
+rows = list(csv.DictReader(open(path)))
+lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
+         "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera (the scan's "
+         "bounding box seen from +z), Mrays/s over all rays (median of 3 frames), scene bytes per original point "
+         "(points, normals, grids, BVH and transforms), peak memory of the whole process.", "",
+         "| scan | model | build s | Mrays/s | rays hit | MLS evaluations per hit | scene bytes/point | peak MiB |",
+         "|---|---|---:|---:|---:|---:|---:|---:|"]
+for r in rows:
+    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
+                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
+print("\n".join(lines))
+begin, end = "<!-- render-bench:begin -->", "<!-- render-bench:end -->"
+text = open(results).read()
+if begin not in text:
+    text += f"\n## Renderer: speed and memory\n\n{begin}\n{end}\n"
+head, rest = text.split(begin, 1)
+tail = rest.split(end, 1)[1]
+open(results, "w").write(head + begin + "\n" + "\n".join(lines) + "\n" + end + tail)
+EOF
