@@ -42,6 +42,28 @@ float analytic_t(const Vec3f& o, const Vec3f& d) {
   return disc < 0 ? std::numeric_limits<float>::infinity() : -b - std::sqrt(disc);
 }
 
+// Two renders' depths, pixel by pixel: how many pixels one hit and the other missed, and the
+// depth differences where both hit, sorted.
+struct DepthComparison {
+  int disagree = 0;
+  int both = 0;
+  std::vector<float> errors;
+};
+
+DepthComparison compare_depths(const Image& a, const Image& b) {
+  DepthComparison c;
+  for (std::size_t i = 0; i < a.depth.size(); ++i) {
+    const bool x = std::isfinite(a.depth[i]), y = std::isfinite(b.depth[i]);
+    if (x != y) ++c.disagree;
+    if (x && y) {
+      ++c.both;
+      c.errors.push_back(std::abs(a.depth[i] - b.depth[i]));
+    }
+  }
+  std::sort(c.errors.begin(), c.errors.end());
+  return c;
+}
+
 TEST(Renderer, SphereSilhouetteAndDepthMatchTheAnalyticSphere) {
   SphereScene scene;
   auto image = render_point_cloud(scene.cloud, scene.options);
@@ -117,19 +139,9 @@ TEST(Renderer, CompressedSphereAgreesWithTheUncompressedOne) {
   scene.options.shade = Shade::kCodeword;
   auto compressed = render_compressed(*model, scene.options, &stats);
   ASSERT_TRUE(plain.ok() && compressed.ok()) << compressed.status().to_string();
-  int disagree = 0, both = 0;
-  std::vector<float> errors;
-  for (std::size_t i = 0; i < plain->depth.size(); ++i) {
-    const bool a = std::isfinite(plain->depth[i]), b = std::isfinite(compressed->depth[i]);
-    if (a != b) ++disagree;
-    if (a && b) {
-      ++both;
-      errors.push_back(std::abs(plain->depth[i] - compressed->depth[i]));
-    }
-  }
+  const auto [disagree, both, errors] = compare_depths(*plain, *compressed);
   ASSERT_GT(both, 1500);
   EXPECT_LT(disagree, both / 50);
-  std::sort(errors.begin(), errors.end());
   EXPECT_LT(errors[errors.size() / 2], 0.005f);
   EXPECT_LT(errors[errors.size() * 95 / 100], 0.02f);
   EXPECT_GT(stats.hits, 1500u);
@@ -181,19 +193,9 @@ TEST(Renderer, CompactAndFloatCodeWordsAgree) {
   scene.options.compact = false;
   auto full = render_compressed(*model, scene.options, &float_stats);
   ASSERT_TRUE(compact.ok() && full.ok());
-  int disagree = 0, both = 0;
-  std::vector<float> errors;
-  for (std::size_t i = 0; i < full->depth.size(); ++i) {
-    const bool a = std::isfinite(full->depth[i]), b = std::isfinite(compact->depth[i]);
-    if (a != b) ++disagree;
-    if (a && b) {
-      ++both;
-      errors.push_back(std::abs(full->depth[i] - compact->depth[i]));
-    }
-  }
+  const auto [disagree, both, errors] = compare_depths(*full, *compact);
   ASSERT_GT(both, 1500);
   EXPECT_LE(disagree, 5);
-  std::sort(errors.begin(), errors.end());
   std::printf("depth differences: median %.5f, 99th percentile %.5f\n", static_cast<double>(errors[errors.size() / 2]),
               static_cast<double>(errors[errors.size() * 99 / 100]));
   EXPECT_LT(errors[errors.size() / 2], 0.001f);
@@ -225,15 +227,8 @@ TEST(Renderer, PagedSceneMatchesTheInMemoryOne) {
       EXPECT_GT(second.bytes_read, 0u);
       EXPECT_LE(second.scene_bytes, budget + budget);  // a brick or so over the budget at most
     }
-    int disagree = 0;
-    std::vector<float> errors;
-    for (std::size_t i = 0; i < plain->depth.size(); ++i) {
-      const bool x = std::isfinite(plain->depth[i]), y = std::isfinite(a->depth[i]);
-      if (x != y) ++disagree;
-      if (x && y) errors.push_back(std::abs(plain->depth[i] - a->depth[i]));
-    }
+    const auto [disagree, both, errors] = compare_depths(*plain, *a);
     EXPECT_LE(disagree, 3);
-    std::sort(errors.begin(), errors.end());
     EXPECT_LT(errors[errors.size() * 99 / 100], 0.002f);
   }
   EXPECT_EQ(test::count_files(dir.path()), 0u);  // the page files went with their scenes
