@@ -80,7 +80,9 @@ done
 
 echo
 python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" <<'EOF'
-import csv, datetime, os, sys
+import csv, datetime, sys
+sys.path.insert(0, "scripts")
+from results_section import replace_section
 path, results, commit, cores = sys.argv[1:]
 rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
@@ -93,11 +95,5 @@ for r in rows:
     lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
                  f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
 print("\n".join(lines))
-begin, end = "<!-- render-bench:begin -->", "<!-- render-bench:end -->"
-text = open(results).read()
-if begin not in text:
-    text += f"\n## Renderer: speed and memory\n\n{begin}\n{end}\n"
-head, rest = text.split(begin, 1)
-tail = rest.split(end, 1)[1]
-open(results, "w").write(head + begin + "\n" + "\n".join(lines) + "\n" + end + tail)
+replace_section(results, "render-bench", "Renderer: speed and memory", lines)
 EOF

@@ -3,7 +3,8 @@
 
 Usage: plot_results.py RESULTS_DIR IMAGES_DIR RESULTS_MD COMMIT CORES
 Reads RESULTS_DIR/codec_rd.csv, encode_stages.csv, normals_rate.csv, fig5_compressed.csv,
-fig5_uncompressed.csv, fig5.json, fig6.csv; writes IMAGES_DIR/fig3a.png, fig4_<scan>.png,
+fig5_uncompressed.csv, fig5_budgets.csv, fig5.json,
+fig6.csv; writes IMAGES_DIR/fig3a.png, fig4_<scan>.png,
 fig5.png and the section between <!-- reproduce:begin --> and <!-- reproduce:end -->.
 Runs on Debian's python3 with python3-matplotlib.
 """
@@ -18,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from results_section import replace_section  # noqa: E402
 
 results, images, results_md, commit, cores = sys.argv[1:6]
 
@@ -96,6 +98,13 @@ lines += ["", "sspc's rate against Draco's at the same paper PSNR (Draco's curve
 for scan, setting, bpp, psnr, d1, d in headline:
     ratio = f"{bpp / d:.2f}" if d else ""
     lines.append(f"| {scan} | {setting} | {bpp:.3f} | {psnr:.2f} | {d1:.2f} | {f'{d:.3f}' if d else ''} | {ratio} |")
+spans = []
+for scan in scans:
+    ratios = sorted(bpp / d for s, _, bpp, _, _, d in headline if s == scan and d)
+    if ratios:
+        spans.append(f"{scan} {ratios[0]:.2f}–{ratios[-1]:.2f} (median {ratios[len(ratios) // 2]:.2f})")
+if spans:
+    lines += ["", "sspc / Draco at equal PSNR, over the rates where both were measured: " + "; ".join(spans) + "."]
 
 normals = rows("normals_rate.csv")
 if normals:
@@ -124,35 +133,63 @@ if stages:
             "read", "normals", "centres", "descriptors", "clustering", "writing", "total")] +
             [f'{float(r["points_per_s"]):.0f}']) + " |")
 
-# Figure 5: frame times along a camera path, compressed against paged uncompressed.
+# Figure 5: frame times along a camera path, compressed against paged uncompressed; beside it the
+# uncompressed path's median frame time at other memory budgets.
 f5c, f5u = rows("fig5_compressed.csv"), rows("fig5_uncompressed.csv")
 if f5c and f5u:
     meta = json.load(open(os.path.join(results, "fig5.json")))
-    fig, ax = plt.subplots(figsize=(7, 4))
+    med = lambda v: sorted(v)[len(v) // 2]
+    tc = med([float(r["render_seconds"]) for r in f5c])
+    tu = med([float(r["render_seconds"]) for r in f5u])
+    read_u = sum(int(r["bytes_read"]) for r in f5u) / 2**20
+    budgets = {meta["budget_mib"]: f5u}
+    for r in rows("fig5_budgets.csv"):
+        budgets.setdefault(int(r["budget_mib"]), []).append(r)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [3, 2]})
+    ax = axes[0]
     ax.plot([int(r["frame"]) for r in f5u], [float(r["render_seconds"]) for r in f5u], "s--",
             label=f'uncompressed, paged ({meta["uncompressed_mib"]:.0f} MiB scene)')
     ax.plot([int(r["frame"]) for r in f5c], [float(r["render_seconds"]) for r in f5c], "o-",
             label=f'compressed ({meta["compressed_mib"]:.0f} MiB scene)')
     ax.set_xlabel("frame")
     ax.set_ylabel("render seconds")
-    ax.set_title(f'Figure 5: {meta["scan"]}, memory budget {meta["budget_mib"]} MiB')
+    ax.set_title(f'{meta["scan"]}, memory budget {meta["budget_mib"]} MiB')
+    ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
     ax.legend()
+    ax = axes[1]
+    sizes = sorted(budgets)
+    ax.plot(sizes, [med([float(r["render_seconds"]) for r in budgets[b]]) for b in sizes], "s--",
+            label="uncompressed, paged")
+    ax.axhline(tc, color="C1", label="compressed, in memory")
+    ax.axvline(meta["uncompressed_mib"], color="gray", linestyle=":", label="uncompressed scene size")
+    ax.set_xlabel("memory budget MiB")
+    ax.set_ylabel("median frame seconds")
+    ax.set_title("frame time against the budget")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.suptitle("Figure 5: rendering within a memory budget")
     fig.tight_layout()
     fig.savefig(os.path.join(images, "fig5.png"), dpi=100)
     plt.close(fig)
-    med = lambda v: sorted(v)[len(v) // 2]
-    tc = med([float(r["render_seconds"]) for r in f5c])
-    tu = med([float(r["render_seconds"]) for r in f5u])
-    read_u = sum(int(r["bytes_read"]) for r in f5u) / 2**20
     lines += ["", "### Figure 5: rendering within a memory budget", "", "![Figure 5](images/fig5.png)", "",
               f'{meta["scan"]} ({meta["points"]:,} points), {len(f5c)} frames of {meta["size"]} along a camera path '
               f'circling above it, {meta["threads"]} threads, memory budget {meta["budget_mib"]} MiB. The '
               f'uncompressed scene needs {meta["uncompressed_mib"]:.0f} MiB (float points and normals and their '
               f'grid), so it is paged in from a file through a cache of the budget; it read {read_u:.0f} MiB over '
               f'the path. The compressed scene (level {meta["level"]}, {meta["bpp"]:.2f} bpp) holds '
-              f'{meta["compressed_mib"]:.0f} MiB and fits. Median frame: compressed {tc:.2f} s, uncompressed '
+              f'{meta["compressed_mib"]:.0f} MiB and {"fits" if meta.get("compressed_within_budget", True) else "does NOT fit"}. Median frame: compressed {tc:.2f} s, uncompressed '
               f'{tu:.2f} s: a speed-up of {tu / tc:.2f}.']
+    if len(budgets) > 1:
+        lines += ["", "The same path, uncompressed, at larger budgets; at one above the scene's size the cache holds it "
+                  "all after the first frames, as an in-memory renderer would:", "",
+                  "| budget MiB | median frame s | read over the path MiB | speed-up of compressed |",
+                  "|---:|---:|---:|---:|"]
+        for b in sizes:
+            m = med([float(r["render_seconds"]) for r in budgets[b]])
+            read = sum(int(r["bytes_read"]) for r in budgets[b]) / 2**20
+            lines.append(f"| {b} | {m:.2f} | {read:.0f} | {m / tc:.2f} |")
 
 # Figure 6: code-word renders at 4 rates.
 f6 = rows("fig6.csv")
@@ -166,11 +203,5 @@ if f6:
 header = [f"Made by `scripts/reproduce.sh` on {datetime.date.today()} at commit {commit}, on "
           f"{platform.machine()} Linux with {cores} cores ({platform.processor() or 'cpu'}); raw CSVs in "
           "`docs/results/`.", ""]
-begin, end = "<!-- reproduce:begin -->", "<!-- reproduce:end -->"
-text = open(results_md).read()
-if begin not in text:
-    text += f"\n## The paper's figures, reproduced\n\n{begin}\n{end}\n"
-head, rest = text.split(begin, 1)
-tail = rest.split(end, 1)[1]
-open(results_md, "w").write(head + begin + "\n" + "\n".join(header + lines) + "\n" + end + tail)
+replace_section(results_md, "reproduce", "The paper's figures, reproduced", header + lines)
 print(f"wrote the figures in {images} and the section in {results_md}")

@@ -3,15 +3,17 @@
 # it into docs/RESULTS.md with its plots (docs/images/fig*.png) and raw CSVs (docs/results/):
 #   Figure 3a  compression ratio against code-book ratio, per scan
 #   Figure 4   rate–distortion (paper PSNR and D1 PSNR) for every scan, 6 sspc levels and
-#              6 Draco quantisations measured in the same run on the same files
+#              9 Draco quantisations (6-16 bits) measured in the same run on the same files
 #   Figure 5   frame times along a 30-frame camera path over autzen, compressed against
-#              uncompressed when the uncompressed scene does not fit the memory budget
+#              uncompressed when the uncompressed scene does not fit the memory budget, and
+#              the uncompressed path's median frame at larger budgets
 #   Figure 6   code-word renders of dragon_scans at 4 rates, with bpp and PSNR
 #   encoding time per stage for every scan
 #
 # Usage: scripts/reproduce.sh [DATA_DIR]    (default ../shared/data)
 #   SCANS, LEVELS, AUTZEN_LEVELS, DRACO_QP   as for scripts/rd_codec.sh (6 rates each by default)
-#   FIG5_SCAN=autzen  FIG5_BUDGET_MIB=160  FIG5_FRAMES=30  FIG5_SIZE=512x512
+#   FIG5_SCAN=autzen  FIG5_BUDGET_MIB=96  FIG5_FRAMES=30  FIG5_SIZE=512x512
+#   FIG5_MORE_BUDGETS="160 256 512"   the uncompressed path again at these budgets (MiB)
 # Installs what it needs (apt: draco, time, python3-matplotlib) and builds a release sspc.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,11 +21,13 @@ data="${1:-../shared/data}"
 export SCANS="${SCANS:-bunny igea dragon_scans autzen}"
 export LEVELS="${LEVELS:-0 2 4 5 7 9}"
 export AUTZEN_LEVELS="${AUTZEN_LEVELS:-4 5 6 7 8 9}"
-export DRACO_QP="${DRACO_QP:-8 9 10 11 12 14}"
+# Draco over the issue's 8-16 bits, and 6-7 to reach down to sspc's lowest rates.
+export DRACO_QP="${DRACO_QP:-6 7 8 9 10 11 12 14 16}"
 FIG5_SCAN="${FIG5_SCAN:-autzen}"
-FIG5_BUDGET_MIB="${FIG5_BUDGET_MIB:-160}"
+FIG5_BUDGET_MIB="${FIG5_BUDGET_MIB:-96}"
 FIG5_FRAMES="${FIG5_FRAMES:-30}"
 FIG5_SIZE="${FIG5_SIZE:-512x512}"
+FIG5_MORE_BUDGETS="${FIG5_MORE_BUDGETS:-160 256 512}"
 FIG6_SCAN="${FIG6_SCAN:-dragon_scans}"
 if [ ! -d "$data" ]; then
   echo "reproduce: no data directory $data" >&2
@@ -105,9 +109,22 @@ for f in range(frames):
     target = (c[0] + 0.1 * span * math.cos(a + 1), c[1] + 0.1 * span * math.sin(a + 1), c[2])
     print(*eye, *target, 0, 0, 1, 50)
 EOF
-  common=(--quiet --threads 2 render --size "$FIG5_SIZE" --camera-path "$work/path.txt" --memory-budget "$FIG5_BUDGET_MIB" -f --json)
-  "$sspc" "${common[@]}" "$work/models/$FIG5_SCAN.l5.sspc" -o "$work/c.png" --times "$results/fig5_compressed.csv" > "$work/c.json"
-  "$sspc" "${common[@]}" "$work/fig5.ply" -o "$work/u.png" --times "$results/fig5_uncompressed.csv" > "$work/u.json"
+  common=(--quiet --threads 2 render --size "$FIG5_SIZE" --camera-path "$work/path.txt" -f --json)
+  "$sspc" "${common[@]}" --memory-budget "$FIG5_BUDGET_MIB" "$work/models/$FIG5_SCAN.l5.sspc" -o "$work/c.png" \
+    --times "$results/fig5_compressed.csv" > "$work/c.json"
+  "$sspc" "${common[@]}" --memory-budget "$FIG5_BUDGET_MIB" "$work/fig5.ply" -o "$work/u.png" \
+    --times "$results/fig5_uncompressed.csv" > "$work/u.json"
+  # How the uncompressed path's frame time follows the budget: the same path at other budgets.
+  echo "budget_mib,frame,render_seconds,bytes_read" > "$results/fig5_budgets.csv"
+  for budget in $FIG5_MORE_BUDGETS; do
+    "$sspc" "${common[@]}" --memory-budget "$budget" "$work/fig5.ply" -o "$work/u.png" --times "$work/b.csv" > /dev/null
+    python3 - "$budget" "$work/b.csv" >> "$results/fig5_budgets.csv" <<'EOF'
+import csv, sys
+budget, path = sys.argv[1:]
+for r in csv.DictReader(open(path)):
+    print(f'{budget},{r["frame"]},{r["render_seconds"]},{r["bytes_read"]}')
+EOF
+  done
   # The uncompressed scene's size in memory, for the caption: one frame without a budget.
   "$sspc" --quiet --threads 2 render "$work/fig5.ply" -o "$work/full.png" --size 64x64 -f --json > "$work/full.json"
   python3 - "$FIG5_SCAN" "$FIG5_BUDGET_MIB" "$FIG5_SIZE" "$work/c.json" "$work/full.json" \
@@ -116,6 +133,7 @@ import json, sys
 scan, budget, size, c, full, enc = sys.argv[1:]
 c, full, enc = json.load(open(c)), json.load(open(full)), json.load(open(enc))
 print(json.dumps({"scan": scan, "budget_mib": int(budget), "size": size, "threads": 2, "points": c["points"],
+                  "compressed_within_budget": c["within_budget"],
                   "level": enc["level"], "bpp": enc["bits_per_point"],
                   "compressed_mib": c["scene_bytes"] / 2**20, "uncompressed_mib": full["scene_bytes"] / 2**20}))
 EOF
