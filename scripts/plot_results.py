@@ -62,19 +62,28 @@ fig.tight_layout()
 fig.savefig(os.path.join(images, "fig3a.png"), dpi=100)
 plt.close(fig)
 
-# Figure 4: rate-distortion, sspc and Draco on the same axes, paper PSNR and D1 PSNR.
+# Figure 4: rate-distortion, sspc and Draco on the same axes, paper PSNR and D1 PSNR; where the
+# file has normals, also each codec's rate with them stored (same positions, so same PSNR).
+normals = rows("normals_rate.csv")
+with_normals = {(r["scan"], r["codec"], r["setting"]): float(r["total_bpp"]) for r in normals}
 headline = []
 for scan in scans:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for codec, style in (("sspc", "o-"), ("draco", "s--")):
-        pts = sorted((float(r["bpp"]), float(r["psnr"]), float(r["d1_psnr"])) for r in rd
-                     if r["scan"] == scan and r["codec"] == codec)
-        if not pts:
+    for codec, colour, marker in (("sspc", "C0", "o"), ("draco", "C1", "s")):
+        runs = sorted((float(r["bpp"]), float(r["psnr"]), float(r["d1_psnr"]), r["setting"]) for r in rd
+                      if r["scan"] == scan and r["codec"] == codec)
+        if not runs:
             continue
-        axes[0].plot([p[0] for p in pts], [p[1] for p in pts], style, label=codec)
-        axes[1].plot([p[0] for p in pts], [p[2] for p in pts], style, label=codec)
+        for ax, k in ((axes[0], 1), (axes[1], 2)):
+            ax.plot([p[0] for p in runs], [p[k] for p in runs], marker + "-", color=colour,
+                    label=f"{codec}, positions")
+            both = sorted((with_normals[(scan, codec, p[3])], p[k]) for p in runs
+                          if (scan, codec, p[3]) in with_normals)
+            if both:
+                ax.plot([p[0] for p in both], [p[1] for p in both], marker + ":", color=colour, mfc="none",
+                        label=f"{codec}, with normals")
     for ax, metric in zip(axes, ("PSNR (paper) dB", "D1 PSNR dB")):
-        ax.set_xlabel("bits per point (positions)")
+        ax.set_xlabel("bits per point")
         ax.set_ylabel(metric)
         ax.grid(True, alpha=0.3)
         ax.legend()
@@ -106,14 +115,15 @@ for scan in scans:
 if spans:
     lines += ["", "sspc / Draco at equal PSNR, over the rates where both were measured: " + "; ".join(spans) + "."]
 
-normals = rows("normals_rate.csv")
 if normals:
-    lines += ["", "Normals: the rates above are positions only (sspc's default; Draco with `--skip NORMAL`); "
-              "decoders re-estimate normals. Stored with `--store-normals` at the default level they cost:", "",
-              "| scan | positions bpp | with normals bpp | normals bpp |", "|---|---:|---:|---:|"]
+    lines += ["", "Normals: the rates above are positions only (sspc's default; Draco with `--skip NORMAL`); the "
+              "decoders re-estimate normals. Stored (sspc `--store-normals`, Draco's default 8-bit normals) they "
+              "cost the following; the positions, and so the PSNR, are the same either way (dotted curves "
+              "above):", "",
+              "| scan | codec | setting | positions bpp | with normals bpp | normals bpp |", "|---|---|---|---:|---:|---:|"]
     for r in normals:
-        lines.append(f'| {r["scan"]} | {float(r["positions_bpp"]):.3f} | {float(r["total_bpp"]):.3f} | '
-                     f'{float(r["total_bpp"]) - float(r["positions_bpp"]):.3f} |')
+        lines.append(f'| {r["scan"]} | {r["codec"]} | {r["setting"]} | {float(r["positions_bpp"]):.3f} | '
+                     f'{float(r["total_bpp"]):.3f} | {float(r["total_bpp"]) - float(r["positions_bpp"]):.3f} |')
 
 lines = ["### Figure 3a: compression ratio against code-book ratio", "", "![Figure 3a](images/fig3a.png)", "",
          "Each point is one level (0: most detail … 9: smallest file). The compression ratio takes 96 bits per "
