@@ -76,26 +76,24 @@ StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
 
   // nanoflann builds a tree on one thread; building the two at once uses two.
   progress_begin(progress, "eval: k-d trees", ref.size() + test.size());
-  std::optional<KdTree3> ref_tree;
-  std::optional<KdTree3> test_tree;
+  std::optional<eval::NearestGroupIndex> ref_index;
+  std::optional<eval::NearestGroupIndex> test_index;
   parallel_invoke(
       [&] {
-        ref_tree.emplace(ref.positions);
+        ref_index.emplace(ref.positions);
         progress_advance(progress, ref.size());
       },
       [&] {
-        test_tree.emplace(test.positions);
+        test_index.emplace(test.positions);
         progress_advance(progress, test.size());
       });
   progress_end(progress);
 
   progress_begin(progress, "eval: nearest REF point of each TEST point", test.size());
-  const eval::NearestGroups test_to_ref =
-      eval::find_nearest_groups(*ref_tree, test.positions, progress);
+  const eval::NearestGroups test_to_ref = ref_index->find(test.positions, progress);
   progress_end(progress);
   progress_begin(progress, "eval: nearest TEST point of each REF point", ref.size());
-  const eval::NearestGroups ref_to_test =
-      eval::find_nearest_groups(*test_tree, ref.positions, progress);
+  const eval::NearestGroups ref_to_test = test_index->find(ref.positions, progress);
   progress_end(progress);
 
   report.has_d2 = ref.has_normals();

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -65,10 +66,37 @@ struct NearestGroups {
   }
 };
 
-// The nearest-point group of every point of `queries` among the points of `tree` (non-empty).
-// Parallel; the result is identical whatever the thread count. Advances `progress` by one per
-// query.
-NearestGroups find_nearest_groups(const KdTree3& tree, std::span<const Vec3f> queries,
-                                  Progress* progress);
+// The points of a cloud gathered by position, and a k-d tree over the distinct positions.
+//
+// Coders that quantise coarsely decode many coincident points: Draco's 6-bit autzen puts about
+// a thousand on each position. A tree over such a cloud visits every one of them whenever a
+// query's nearest point is among them (its k-NN answer keeps the lowest indices among equal
+// distances, so no coincident point can be skipped): `sspc eval` of that file took minutes. The
+// tree here holds each position once, and a group found among positions is expanded back to
+// the lowest indices of the points at them. A cloud without coincident points is indexed as it
+// is, with no copy.
+class NearestGroupIndex {
+ public:
+  // `points` must outlive the index. Not empty.
+  explicit NearestGroupIndex(std::span<const Vec3f> points);
+  NearestGroupIndex(const NearestGroupIndex&) = delete;
+  NearestGroupIndex& operator=(const NearestGroupIndex&) = delete;
+
+  std::size_t distinct_positions() const { return tree_->size(); }
+
+  // The nearest-point group of every point of `queries` among the indexed points, in their
+  // indices. Parallel; the result is identical whatever the thread count. Advances `progress`
+  // by one per query.
+  NearestGroups find(std::span<const Vec3f> queries, Progress* progress) const;
+
+ private:
+  // Appends to `out` the lowest (at most `limit`) indices of the points at distinct position u.
+  void append_points(std::uint32_t u, std::size_t limit, std::vector<std::uint32_t>& out) const;
+
+  std::vector<Vec3f> distinct_;         // empty when the cloud has no coincident points
+  std::vector<std::uint32_t> offsets_;  // points of position u: members_[offsets_[u] .. offsets_[u + 1])
+  std::vector<std::uint32_t> members_;  // ascending within each position
+  std::optional<KdTree3> tree_;
+};
 
 }  // namespace sspc::eval

@@ -22,13 +22,14 @@ std::vector<std::uint32_t> brute_force_group(const std::vector<Vec3f>& points, c
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     if (d2(points[i], q) <= best + best * kTieRelativeTolerance) group.push_back(i);
   }
+  if (group.size() > kMaxGroup) group.resize(kMaxGroup);  // the lowest indices
   return group;
 }
 
 void expect_matches_brute_force(const std::vector<Vec3f>& points, const std::vector<Vec3f>& queries,
                                 std::size_t* ties) {
-  const KdTree3 tree(points);
-  const NearestGroups groups = find_nearest_groups(tree, queries, nullptr);
+  const NearestGroupIndex index(points);
+  const NearestGroups groups = index.find(queries, nullptr);
   ASSERT_EQ(groups.size(), queries.size());
   for (std::size_t q = 0; q < queries.size(); ++q) {
     std::vector<std::uint32_t> got;
@@ -40,12 +41,19 @@ void expect_matches_brute_force(const std::vector<Vec3f>& points, const std::vec
   }
 }
 
+// The points (step·x, step·y, step·z) for x < nx, y < ny, z < nz.
+std::vector<Vec3f> lattice(int nx, int ny, int nz, float step) {
+  std::vector<Vec3f> points;
+  for (int x = 0; x < nx; ++x)
+    for (int y = 0; y < ny; ++y)
+      for (int z = 0; z < nz; ++z)
+        points.push_back(step * Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+  return points;
+}
+
 TEST(NearestGroups, LatticeWithTies) {
   // Steps of 1/8 are exact in float, so the ties are exact. Queries at cell centres, face centres and lattice points: groups of 8, 2 and 1.
-  std::vector<Vec3f> points;
-  for (float x = 0; x < 6; ++x)
-    for (float y = 0; y < 6; ++y)
-      for (float z = 0; z < 6; ++z) points.push_back({0.125f * x, 0.125f * y, 0.125f * z});
+  const std::vector<Vec3f> points = lattice(6, 6, 6, 0.125f);
   std::vector<Vec3f> queries;
   for (float i = 0; i < 5; ++i) {
     queries.push_back({0.0625f + 0.125f * i, 0.0625f + 0.125f * i, 0.0625f + 0.125f * (4 - i)});
@@ -73,6 +81,24 @@ TEST(NearestGroups, DuplicatePointsFormOneGroup) {
   std::size_t ties = 0;
   expect_matches_brute_force(points, queries, &ties);
   EXPECT_EQ(ties, 2u);
+}
+
+TEST(NearestGroups, CoincidentPointsByTheHundred) {
+  // A coarsely quantised decode: 40 positions on a lattice, each held by 150 points whose
+  // indices interleave across positions. A query nearest one position gets the lowest 30 of its
+  // points; one midway between positions, the lowest 30 of all theirs. The index keeps 40
+  // positions.
+  const std::vector<Vec3f> grid = lattice(5, 4, 2, 0.25f);
+  std::vector<Vec3f> points;
+  for (std::size_t copy = 0; copy < 150; ++copy)
+    for (std::size_t i = 0; i < grid.size(); ++i) points.push_back(grid[(i * 7 + copy) % grid.size()]);
+  const std::vector<Vec3f> queries = {{0.25f, 0.25f, 0}, {0.125f, 0.5f, 0.25f}, {0.3f, 0.01f, 0.2f},
+                                      {1, 0.75f, 0.25f}, {0.5f, 0.5f, 0.125f}};
+  std::size_t ties = 0;
+  expect_matches_brute_force(points, queries, &ties);
+  EXPECT_EQ(ties, queries.size());
+  EXPECT_EQ(NearestGroupIndex(points).distinct_positions(), grid.size());
+  EXPECT_EQ(NearestGroupIndex(grid).distinct_positions(), grid.size());
 }
 
 }  // namespace
