@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <limits>
-#include <numeric>
 
 #include "core/parallel.hpp"
 
@@ -29,62 +28,18 @@ double squared_distance(const Vec3f& a, const Vec3f& b) {
 
 }  // namespace
 
-NearestGroupIndex::NearestGroupIndex(std::span<const Vec3f> points) {
-  // Points sorted by position, coincident ones by index: each run of equal positions is one
-  // distinct position, its first member the lowest index.
-  std::vector<std::uint32_t> order(points.size());
-  std::iota(order.begin(), order.end(), 0u);
-  const auto less = [&](std::uint32_t a, std::uint32_t b) {
-    const Vec3f& p = points[a];
-    const Vec3f& q = points[b];
-    if (p.x() != q.x()) return p.x() < q.x();
-    if (p.y() != q.y()) return p.y() < q.y();
-    if (p.z() != q.z()) return p.z() < q.z();
-    return a < b;
-  };
-  std::sort(order.begin(), order.end(), less);
-  bool coincident = false;
-  for (std::size_t i = 1; i < order.size() && !coincident; ++i) coincident = points[order[i]] == points[order[i - 1]];
-  if (!coincident) {
-    tree_.emplace(points);
-    return;
-  }
-  // Distinct positions numbered in the order of their lowest index, so that the tree's own
-  // tie-break (lower index first) agrees with the points' indices.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> runs;  // (lowest index, start in order)
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    if (i == 0 || points[order[i]] != points[order[i - 1]]) runs.emplace_back(order[i], static_cast<std::uint32_t>(i));
-  }
-  std::vector<std::uint32_t> run_end(runs.size());
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    run_end[r] = r + 1 < runs.size() ? runs[r + 1].second : static_cast<std::uint32_t>(order.size());
-  }
-  std::vector<std::uint32_t> by_index(runs.size());
-  std::iota(by_index.begin(), by_index.end(), 0u);
-  std::sort(by_index.begin(), by_index.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return runs[a].first < runs[b].first; });
-  distinct_.reserve(runs.size());
-  offsets_.reserve(runs.size() + 1);
-  members_.reserve(points.size());
-  offsets_.push_back(0);
-  for (const std::uint32_t r : by_index) {
-    distinct_.push_back(points[runs[r].first]);
-    members_.insert(members_.end(), order.begin() + runs[r].second, order.begin() + run_end[r]);
-    offsets_.push_back(static_cast<std::uint32_t>(members_.size()));
-  }
-  tree_.emplace(distinct_);
+NearestGroupIndex::NearestGroupIndex(std::span<const Vec3f> points) : distinct_(points) {
+  tree_.emplace(distinct_.any_coincident() ? distinct_.positions() : points);
 }
 
 void NearestGroupIndex::append_points(std::uint32_t u, std::size_t limit,
                                       std::vector<std::uint32_t>& out) const {
-  if (distinct_.empty()) {
+  if (!distinct_.any_coincident()) {
     out.push_back(u);
     return;
   }
-  const std::size_t begin = offsets_[u];
-  const std::size_t end = std::min<std::size_t>(offsets_[u + 1], begin + limit);
-  out.insert(out.end(), members_.begin() + static_cast<std::ptrdiff_t>(begin),
-             members_.begin() + static_cast<std::ptrdiff_t>(end));
+  const auto members = distinct_.members(u);
+  out.insert(out.end(), members.begin(), members.begin() + static_cast<std::ptrdiff_t>(std::min(limit, members.size())));
 }
 
 NearestGroups NearestGroupIndex::find(std::span<const Vec3f> queries, Progress* progress) const {

@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "geometry/distinct_positions.hpp"
 #include "sspc/neighbors.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
@@ -66,15 +67,10 @@ struct NearestGroups {
   }
 };
 
-// The points of a cloud gathered by position, and a k-d tree over the distinct positions.
-//
-// Coders that quantise coarsely decode many coincident points: Draco's 6-bit autzen puts about
-// a thousand on each position. A tree over such a cloud visits every one of them whenever a
-// query's nearest point is among them (its k-NN answer keeps the lowest indices among equal
-// distances, so no coincident point can be skipped): `sspc eval` of that file took minutes. The
-// tree here holds each position once, and a group found among positions is expanded back to
-// the lowest indices of the points at them. A cloud without coincident points is indexed as it
-// is, with no copy.
+// A k-d tree over the distinct positions of a cloud (geometry/distinct_positions.hpp), answering
+// nearest-point groups in the cloud's own indices: a group found among positions is expanded
+// back to the lowest indices of the points at them. Draco's 6-bit autzen (about a thousand
+// coincident points a position) took minutes in `sspc eval` with a tree over the points.
 class NearestGroupIndex {
  public:
   // `points` must outlive the index. Not empty.
@@ -90,12 +86,10 @@ class NearestGroupIndex {
   NearestGroups find(std::span<const Vec3f> queries, Progress* progress) const;
 
  private:
-  // Appends to `out` the lowest (at most `limit`) indices of the points at distinct position u.
+  // Appends to `out` the lowest (at most `limit`) indices of the points at tree position u.
   void append_points(std::uint32_t u, std::size_t limit, std::vector<std::uint32_t>& out) const;
 
-  std::vector<Vec3f> distinct_;         // empty when the cloud has no coincident points
-  std::vector<std::uint32_t> offsets_;  // points of position u: members_[offsets_[u] .. offsets_[u + 1])
-  std::vector<std::uint32_t> members_;  // ascending within each position
+  DistinctPositions distinct_;
   std::optional<KdTree3> tree_;
 };
 

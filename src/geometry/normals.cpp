@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <string>
 
+#include "geometry/distinct_positions.hpp"
 #include "geometry/normals_steps.hpp"
 #include "sspc/neighbors.hpp"
 
@@ -35,9 +36,8 @@ Status check_options(const PointCloud& cloud, const NormalOptions& options) {
 // the PCA, and its self-edge is harmless to the spanning tree).
 KnnTable neighbourhoods(const PointCloud& cloud, const NormalOptions& options) {
   progress_begin(options.progress, "normals: neighbours", cloud.size());
-  const KdTree3 tree(cloud.positions);
   const std::size_t k = std::min(static_cast<std::size_t>(options.k), cloud.size());
-  KnnTable table = tree.knn_batch(cloud.positions, k, false, options.progress);
+  KnnTable table = knn_of_own_points(cloud.positions, k, options.progress);
   progress_end(options.progress);
   return table;
 }
