@@ -5,8 +5,6 @@
 #include <numeric>
 #include <utility>
 
-#include <oneapi/tbb/parallel_sort.h>
-
 #include "core/parallel.hpp"
 
 namespace sspc {
@@ -25,7 +23,7 @@ DistinctPositions::DistinctPositions(std::span<const Vec3f> points) {
     order[i] = {points[i].x(), points[i].y(), points[i].z(), static_cast<std::uint32_t>(i)};
   });
   const auto same = [](const Entry& a, const Entry& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
-  tbb::parallel_sort(order.begin(), order.end(), [](const Entry& a, const Entry& b) {
+  parallel_sort(order.begin(), order.end(), [](const Entry& a, const Entry& b) {
     if (a.x != b.x) return a.x < b.x;
     if (a.y != b.y) return a.y < b.y;
     if (a.z != b.z) return a.z < b.z;
