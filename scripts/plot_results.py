@@ -3,9 +3,8 @@
 
 Usage: plot_results.py RESULTS_DIR IMAGES_DIR RESULTS_MD COMMIT CORES
 Reads RESULTS_DIR/codec_rd.csv, encode_stages.csv, normals_rate.csv, fig5_compressed.csv,
-fig5_uncompressed.csv, fig5_budgets.csv, fig5.json,
-fig6.csv; writes IMAGES_DIR/fig3a.png, fig4_<scan>.png,
-fig5.png and the section between <!-- reproduce:begin --> and <!-- reproduce:end -->.
+fig5_uncompressed.csv, fig5_budgets.csv, fig5.json, fig6.csv; writes IMAGES_DIR/fig3a.png,
+fig4_<scan>.png, fig5.png and the section between <!-- reproduce:begin --> and <!-- reproduce:end -->.
 Runs on Debian's python3 with python3-matplotlib.
 """
 import csv

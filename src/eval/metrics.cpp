@@ -10,7 +10,6 @@
 #include <optional>
 #include <string>
 
-
 #include "core/parallel.hpp"
 #include "eval/directed_error.hpp"
 #include "eval/nearest_groups.hpp"

@@ -29,12 +29,12 @@ double squared_distance(const Vec3f& a, const Vec3f& b) {
 }  // namespace
 
 NearestGroupIndex::NearestGroupIndex(std::span<const Vec3f> points) : distinct_(points) {
-  tree_.emplace(distinct_.any_coincident() ? distinct_.positions() : points);
+  tree_.emplace(distinct_.gathered() ? distinct_.positions() : points);
 }
 
 void NearestGroupIndex::append_points(std::uint32_t u, std::size_t limit,
                                       std::vector<std::uint32_t>& out) const {
-  if (!distinct_.any_coincident()) {
+  if (!distinct_.gathered()) {
     out.push_back(u);
     return;
   }

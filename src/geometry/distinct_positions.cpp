@@ -9,7 +9,7 @@
 
 namespace sspc {
 
-DistinctPositions::DistinctPositions(std::span<const Vec3f> points) {
+DistinctPositions::DistinctPositions(std::span<const Vec3f> points, std::size_t gather_above) {
   // Points sorted by position, coincident ones by index: each run of equal positions is one
   // distinct position, its first member the lowest index. The entries carry their coordinates,
   // so the sort compares without reaching back into the cloud (3 times as fast as sorting
@@ -33,9 +33,11 @@ DistinctPositions::DistinctPositions(std::span<const Vec3f> points) {
   for (std::size_t i = 0; i < order.size(); ++i) {
     if (i == 0 || !same(order[i], order[i - 1])) run_start.push_back(static_cast<std::uint32_t>(i));
   }
-  if (run_start.size() == order.size()) return;
   run_start.push_back(static_cast<std::uint32_t>(order.size()));
   const std::size_t runs = run_start.size() - 1;
+  std::size_t most = 0;
+  for (std::size_t r = 0; r < runs; ++r) most = std::max<std::size_t>(most, run_start[r + 1] - run_start[r]);
+  if (most <= gather_above) return;
   // Positions numbered by their lowest index, so that a tree over them, which breaks ties by
   // index, breaks them as a tree over the points would.
   std::vector<std::uint32_t> by_lowest(runs);
@@ -50,7 +52,6 @@ DistinctPositions::DistinctPositions(std::span<const Vec3f> points) {
   for (const std::uint32_t r : by_lowest) {
     positions_.push_back(points[order[run_start[r]].index]);
     for (std::size_t m = run_start[r]; m < run_start[r + 1]; ++m) members_.push_back(order[m].index);
-    most_coincident_ = std::max<std::size_t>(most_coincident_, run_start[r + 1] - run_start[r]);
     offsets_.push_back(static_cast<std::uint32_t>(members_.size()));
   }
 }
@@ -89,10 +90,10 @@ bool fill_row(const DistinctPositions& distinct, std::size_t k, std::span<const 
 }  // namespace
 
 KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress) {
-  const DistinctPositions distinct(points);
   // A tree over the points visits all c points at a position for each of them: c² for the
   // position, harmless while c is about k or less (the search itself costs k per point).
-  if (distinct.most_coincident() <= std::max<std::size_t>(2 * k, 32)) {
+  const DistinctPositions distinct(points, std::max<std::size_t>(2 * k, 32));
+  if (!distinct.gathered()) {
     return KdTree3(points).knn_batch(points, k, false, progress);
   }
 

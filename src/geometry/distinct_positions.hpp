@@ -21,16 +21,15 @@ namespace sspc {
 
 class DistinctPositions {
  public:
-  // `points` must outlive this. Sorts the points by position (in parallel).
-  explicit DistinctPositions(std::span<const Vec3f> points);
+  // `points` must outlive this. Sorts the points by position (in parallel), and gathers them
+  // only when some position holds more than `gather_above` points.
+  explicit DistinctPositions(std::span<const Vec3f> points, std::size_t gather_above = 1);
 
-  // False when no two points coincide; positions() and members() are then empty: search the
-  // points themselves.
-  bool any_coincident() const { return !positions_.empty(); }
+  // False when no position holds more than `gather_above` points; positions() and members() are
+  // then empty: search the points themselves.
+  bool gathered() const { return !positions_.empty(); }
   // One entry per distinct position, numbered in the order of each position's lowest index.
   std::span<const Vec3f> positions() const { return positions_; }
-  // The most points at one position (0 when none coincide).
-  std::size_t most_coincident() const { return most_coincident_; }
   // The indices of the points at position u, ascending.
   std::span<const std::uint32_t> members(std::size_t u) const {
     return {members_.data() + offsets_[u], offsets_[u + 1] - offsets_[u]};
@@ -40,7 +39,6 @@ class DistinctPositions {
   std::vector<Vec3f> positions_;
   std::vector<std::uint32_t> offsets_;
   std::vector<std::uint32_t> members_;
-  std::size_t most_coincident_ = 0;
 };
 
 // The k nearest of every point among the cloud's own points (itself included), exactly as

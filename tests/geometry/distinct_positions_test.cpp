@@ -41,7 +41,7 @@ void expect_same_table(const KnnTable& got, const KnnTable& want) {
 TEST(DistinctPositions, GroupsCoincidentPointsByLowestIndex) {
   const std::vector<Vec3f> points = {{1, 0, 0}, {0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 0, 0}, {1, 0, 0}};
   const DistinctPositions distinct(points);
-  ASSERT_TRUE(distinct.any_coincident());
+  ASSERT_TRUE(distinct.gathered());
   ASSERT_EQ(distinct.positions().size(), 3u);
   EXPECT_EQ(distinct.positions()[0], Vec3f(1, 0, 0));
   EXPECT_EQ(distinct.positions()[1], Vec3f(0, 0, 0));
@@ -50,7 +50,7 @@ TEST(DistinctPositions, GroupsCoincidentPointsByLowestIndex) {
             (std::vector<std::uint32_t>{0, 2, 5}));
   EXPECT_EQ(std::vector<std::uint32_t>(distinct.members(1).begin(), distinct.members(1).end()),
             (std::vector<std::uint32_t>{1, 4}));
-  EXPECT_FALSE(DistinctPositions(synthetic::sphere(500, 1.0).positions).any_coincident());
+  EXPECT_FALSE(DistinctPositions(synthetic::sphere(500, 1.0).positions).gathered());
 }
 
 TEST(DistinctPositions, KnnEqualsTheTreeOverThePoints) {
