@@ -122,9 +122,23 @@ class KdTreeL1 {
   std::unique_ptr<Impl> impl_;
 };
 
-// Nominal point spacing: the median distance from a point to its nearest neighbour, over a
-// deterministic sample of up to `samples` points. 0 for fewer than two points.
+// Nominal point spacing: the median distance from a point to its nearest neighbour at another
+// position, over a deterministic sample of up to `samples` points (of the distinct positions when
+// any sampled point has a twin). 0 for fewer than two distinct positions.
 double nominal_spacing(const PointCloud& cloud, std::size_t samples = 10000);
 double nominal_spacing(const KdTree3& tree, std::size_t samples = 10000);
+
+// The limits within which sspc's float32 geometry holds (squared distances neither overflow
+// nor underflow, grids of spacing-sized cells fit in 32-bit indices): every |coordinate| at most
+// kMaxCoordinate, a nominal spacing of at least kMinSpacing, and an extent of at most
+// kMaxExtentInSpacings spacings. Returns kInvalidArgument saying which limit the cloud
+// (`positions`, of nominal spacing `spacing`) breaks and what to do about it, else OK.
+inline constexpr double kMaxCoordinate = 1e18;
+inline constexpr double kMinSpacing = 1e-18;
+inline constexpr double kMaxExtentInSpacings = 16777216.0;  // 2^24: float32's own resolution
+Status check_geometry_range(std::span<const Vec3f> positions, double spacing);
+// The part of those checks that needs no spacing (a pass over the positions): every
+// |coordinate| at most kMaxCoordinate, and an extent of 0 or at least kMinSpacing.
+Status check_coordinate_range(std::span<const Vec3f> positions);
 
 }  // namespace sspc

@@ -27,8 +27,12 @@ Status check_options(const EncodeOptions& o) {
   if (o.patch_points && (*o.patch_points < 8 || *o.patch_points > 4096)) {
     return invalid_argument("patch points must be 8..4096, got " + std::to_string(*o.patch_points));
   }
-  if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon < 1e3f)) return invalid_argument("epsilon must be positive");
-  if (o.tau && !(*o.tau > 0 && *o.tau < 1e3f)) return invalid_argument("tau must be positive");
+  if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon <= 1e3f)) {
+    return invalid_argument("epsilon must be in (0, 1000], got " + std::to_string(*o.epsilon));
+  }
+  if (o.tau && !(*o.tau > 0 && *o.tau <= 1e3f)) {
+    return invalid_argument("tau must be in (0, 1000] spacings, got " + std::to_string(*o.tau));
+  }
   if (o.position_bits && (*o.position_bits < 4 || *o.position_bits > 16)) {
     return invalid_argument("position bits must be 4..16, got " + std::to_string(*o.position_bits));
   }
@@ -64,7 +68,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   build.seed = options.seed;
   build.progress = options.progress;
   codec::BuildStats build_stats;
-  codec::EncodedModel model = codec::build_model(cloud, build, &build_stats);
+  SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
   model.has_normals = model.has_normals && options.store_normals;
   stats.seconds_centres = build_stats.seconds_centres;
   stats.seconds_codebook = build_stats.seconds_codebook;

@@ -16,23 +16,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The median nearest-neighbour distance is 0 when most points are exact duplicates, and a patch
-// radius of 0 would divide by zero downstream; the spacing of the distinct positions is then the
-// one that describes the surface (the encoder has checked that not all points coincide).
-double surface_spacing(const PointCloud& cloud, const KdTree3& tree) {
-  const double spacing = nominal_spacing(tree);
-  if (spacing > 0) return spacing;
-  PointCloud distinct;
-  distinct.positions = cloud.positions;
-  const auto less = [](const Vec3f& a, const Vec3f& b) {
-    return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
-  };
-  std::sort(distinct.positions.begin(), distinct.positions.end(), less);
-  distinct.positions.erase(std::unique(distinct.positions.begin(), distinct.positions.end()),
-                           distinct.positions.end());
-  return nominal_spacing(distinct);
-}
-
 }  // namespace
 
 void number_codewords_by_first_use(EncodedModel& model) {
@@ -71,9 +54,11 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
   return static_cast<float>(radius);
 }
 
-EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
+StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
   const KdTree3 tree(cloud.positions);
-  const double spacing = surface_spacing(cloud, tree);
+  // Of the distinct positions: a radius of 0 would divide by zero downstream.
+  const double spacing = nominal_spacing(tree);
+  SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
   const float patch_radius = radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
   const float coverage_radius = patch_radius / kPatchOverCoverage;
 

@@ -37,7 +37,7 @@ struct BuildStats {
 };
 
 // `cloud` must have unit normals and at least 2 distinct points.
-EncodedModel build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);
+StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);
 
 // Renumbers the code words in the order patches (in file order, which is spatial) first use
 // them. The greedy builder numbers them by curvature, so neighbouring patches' indices were far

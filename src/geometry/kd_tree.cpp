@@ -4,13 +4,16 @@
 // otherwise repeat: answers that do not depend on the tree's shape (ties broken by index, the
 // radius inclusive), parallel batched k-NN with self-exclusion, and the nominal spacing.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 
 #include <nanoflann.hpp>
 
 #include "core/parallel.hpp"
+#include "geometry/distinct_positions.hpp"
 #include "geometry/knn_result_set.hpp"
 #include "sspc/neighbors.hpp"
 
@@ -161,15 +164,27 @@ double nominal_spacing(const KdTree3& tree, std::size_t samples) {
   // Evenly strided sample: deterministic, and spread over the file's order (scanner order is
   // usually spatially coherent, so a stride covers the whole object).
   std::vector<float> nearest(count, 0.0f);
+  std::atomic<bool> coincident{false};
   parallel_for(0, count, 64, [&](std::size_t s) {
     const std::size_t i = s * n / count;  // s < count ≤ 2^32 keeps the product in range
     std::uint32_t idx[2];
     float d2[2];
     const std::size_t found = tree.knn(tree.points()[i], 2, idx, d2);
-    // The first hit is the point itself, unless duplicates tie with it; either way the second
-    // distance is the nearest other sample (0 for exact duplicates).
     nearest[s] = found == 2 ? std::sqrt(d2[1]) : 0.0f;
+    if (nearest[s] == 0.0f) coincident.store(true, std::memory_order_relaxed);
   });
+  if (coincident) {
+    // A sampled point shares its position with another: a median over points would count
+    // duplicates as zero distances (0 when most points are doubled, and every step derived from
+    // it stops moving). The spacing is that of the distinct positions.
+    // (No position repeats when the squared distance underflowed instead: that median stands.)
+    const DistinctPositions distinct(tree.points());
+    if (distinct.gathered()) {
+      if (distinct.positions().size() < 2) return 0.0;
+      const KdTree3 positions(distinct.positions());
+      return nominal_spacing(positions, samples);
+    }
+  }
   auto mid = nearest.begin() + static_cast<std::ptrdiff_t>(count / 2);
   std::nth_element(nearest.begin(), mid, nearest.end());
   return static_cast<double>(*mid);
@@ -179,6 +194,74 @@ double nominal_spacing(const PointCloud& cloud, std::size_t samples) {
   if (cloud.size() < 2) return 0.0;
   const KdTree3 tree(cloud.positions);
   return nominal_spacing(tree, samples);
+}
+
+namespace {
+
+struct Extent {
+  double largest = 0;  // the largest |coordinate|
+  double side = 0;     // the bounding box's longest side
+};
+
+Extent measure_extent(std::span<const Vec3f> positions) {
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  double largest = 0;
+  for (const Vec3f& p : positions) {
+    const Vec3d q = p.cast<double>();
+    largest = std::max(largest, q.cwiseAbs().maxCoeff());
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  return {largest, positions.empty() ? 0.0 : (hi - lo).maxCoeff()};
+}
+
+Status spacing_too_small(double spacing) {
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "the point spacing is %.3g: sspc computes in float32 and needs at least %.0e (squared distances "
+                "would underflow); scale the cloud up (to metres, say)",
+                spacing, kMinSpacing);
+  return invalid_argument(text);
+}
+
+}  // namespace
+
+Status check_coordinate_range(std::span<const Vec3f> positions) {
+  const Extent e = measure_extent(positions);
+  if (e.largest > kMaxCoordinate) {
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "coordinates reach %.3g: sspc computes in float32 and needs every |coordinate| at most %.0e "
+                  "(squared distances would overflow); remove the outliers or subtract an origin",
+                  e.largest, kMaxCoordinate);
+    return invalid_argument(text);
+  }
+  // The spacing is at most the extent: a cloud this small has a spacing below the limit.
+  if (e.side > 0 && e.side < kMinSpacing) {
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "the cloud spans only %.3g: sspc computes in float32 and needs a point spacing of at least %.0e "
+                  "(squared distances would underflow); scale the cloud up (to metres, say)",
+                  e.side, kMinSpacing);
+    return invalid_argument(text);
+  }
+  return Status();
+}
+
+Status check_geometry_range(std::span<const Vec3f> positions, double spacing) {
+  SSPC_RETURN_IF_ERROR(check_coordinate_range(positions));
+  const Extent e = measure_extent(positions);
+  if (e.side == 0) return invalid_argument("all points coincide");
+  if (!(spacing >= kMinSpacing)) return spacing_too_small(spacing);
+  if (e.side > kMaxExtentInSpacings * spacing) {
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "the cloud spans %.3g along an axis but its points are %.3g apart: %.3g spacings, more than "
+                  "float32 resolves (%.0f); remove the outliers far from the rest, or split the cloud",
+                  e.side, spacing, e.side / spacing, kMaxExtentInSpacings);
+    return invalid_argument(text);
+  }
+  return Status();
 }
 
 }  // namespace sspc

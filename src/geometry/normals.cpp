@@ -29,7 +29,9 @@ Status check_options(const PointCloud& cloud, const NormalOptions& options) {
   if (cloud.size() > std::size_t{0xFFFFFFFFu}) {
     return resource_exhausted("normals: more than 2^32 - 1 points");
   }
-  return {};
+  // Before any search: at scales float32 cannot square, every distance is 0 or infinite, and
+  // the neighbour search degenerates (every point ties with every other).
+  return check_coordinate_range(cloud.positions);
 }
 
 // Each point's k nearest neighbours, itself included (it is part of its own neighbourhood for

@@ -53,7 +53,9 @@ TEST(ModelBuilder, SelfSimilarBumpsShareFewCodeWords) {
   BuildStats stats;
   // Level 0: 64-point patches, whose copies lie within ICP's reach (the larger patches of the
   // higher levels find fewer of them: ratio 3.8 at level 1).
-  const EncodedModel model = build_model(cloud, options_for_level(0), &stats);
+  auto built = build_model(cloud, options_for_level(0), &stats);
+  ASSERT_TRUE(built.ok()) << built.status().to_string();
+  const EncodedModel& model = *built;
   ASSERT_GT(model.codebook.size(), 0u);
   const double ratio = static_cast<double>(model.patches.size()) / static_cast<double>(model.codebook.size());
   EXPECT_GE(ratio, 10.0) << model.patches.size() << " patches, " << model.codebook.size() << " code words";
@@ -76,8 +78,11 @@ TEST(ModelBuilder, SelfSimilarBumpsShareFewCodeWords) {
 
 TEST(ModelBuilder, DeterministicAcrossRuns) {
   const PointCloud cloud = synthetic::torus(20000, 1.0, 0.3);
-  const EncodedModel a = build_model(cloud, options_for_level(kDefaultLevel), nullptr);
-  const EncodedModel b = build_model(cloud, options_for_level(kDefaultLevel), nullptr);
+  auto built_a = build_model(cloud, options_for_level(kDefaultLevel), nullptr);
+  auto built_b = build_model(cloud, options_for_level(kDefaultLevel), nullptr);
+  ASSERT_TRUE(built_a.ok() && built_b.ok());
+  const EncodedModel& a = *built_a;
+  const EncodedModel& b = *built_b;
   ASSERT_EQ(a.patches.size(), b.patches.size());
   ASSERT_EQ(a.codebook.size(), b.codebook.size());
   for (std::size_t k = 0; k < a.patches.size(); ++k) {

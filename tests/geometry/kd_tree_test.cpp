@@ -223,5 +223,54 @@ TEST(KdTree3, NominalSpacingOfRegularGridIsItsStep) {
   EXPECT_EQ(nominal_spacing(one), 0.0);
 }
 
+// Duplicates do not shrink the spacing: it is that of the distinct positions, so that a cloud
+// written twice (or with most points doubled) keeps the step that renderers and the codec derive
+// from it (it was 0, and a march in steps of it never moved).
+TEST(KdTree3, NominalSpacingIgnoresCoincidentPoints) {
+  PointCloud cloud;
+  const float step = 0.25f;
+  for (int y = 0; y < 60; ++y) {
+    for (int x = 0; x < 70; ++x) cloud.positions.emplace_back(step * static_cast<float>(x), step * static_cast<float>(y), 2.0f);
+  }
+  PointCloud doubled = cloud;
+  doubled.positions.insert(doubled.positions.end(), cloud.positions.begin(), cloud.positions.end());
+  EXPECT_FLOAT_EQ(static_cast<float>(nominal_spacing(doubled)), step);
+  PointCloud some = cloud;  // a tenth of the points doubled
+  for (std::size_t i = 0; i < cloud.size(); i += 10) some.positions.push_back(cloud.positions[i]);
+  EXPECT_FLOAT_EQ(static_cast<float>(nominal_spacing(some)), step);
+  PointCloud coincident;
+  coincident.positions.assign(50, Vec3f(1, 2, 3));
+  EXPECT_EQ(nominal_spacing(coincident), 0.0);
+}
+
+TEST(GeometryRange, LimitsOfFloat32AreNamed) {
+  PointCloud cloud;
+  for (int i = 0; i < 100; ++i) cloud.positions.emplace_back(0.01f * static_cast<float>(i), 0.0f, 1.0f);
+  EXPECT_TRUE(check_geometry_range(cloud.positions, 0.01).ok());
+  EXPECT_TRUE(check_coordinate_range(cloud.positions).ok());
+
+  PointCloud outlier = cloud;
+  outlier.positions[3].x() = 1e20f;
+  const Status far = check_coordinate_range(outlier.positions);
+  EXPECT_EQ(far.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(far.message().find("coordinates reach 1e+20"), std::string::npos) << far.message();
+
+  PointCloud tiny = cloud;
+  for (Vec3f& p : tiny.positions) p *= 1e-30f;
+  EXPECT_FALSE(check_coordinate_range(tiny.positions).ok());
+  EXPECT_FALSE(check_geometry_range(cloud.positions, 1e-20).ok());
+  EXPECT_FALSE(check_geometry_range(cloud.positions, 0.0).ok());
+
+  PointCloud spread = cloud;  // 10^17 spacings across: beyond float32's 2^24
+  spread.positions[0].x() = 1e15f;
+  EXPECT_TRUE(check_coordinate_range(spread.positions).ok());
+  const Status wide = check_geometry_range(spread.positions, 0.01);
+  EXPECT_NE(wide.message().find("spacings"), std::string::npos) << wide.message();
+
+  PointCloud same;
+  same.positions.assign(10, Vec3f(1, 1, 1));
+  EXPECT_NE(check_geometry_range(same.positions, 0.0).message().find("coincide"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace sspc
