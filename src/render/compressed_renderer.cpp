@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/parallel.hpp"
@@ -15,6 +16,7 @@
 #include "render/mls_surface.hpp"
 #include "render/shading.hpp"
 #include "render/sphere_bvh.hpp"
+#include "sspc/neighbors.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/render.hpp"
 
@@ -76,7 +78,23 @@ Status CompressedScene::build(const CompressedModel& model, float bandwidth, Pro
   if (model.patch_count() == 0) return invalid_argument("the model has no patches");
   const auto start = std::chrono::steady_clock::now();
   bounds_ = info.bounds;
-  h_ = std::max(bandwidth * info.spacing, 1e-6f * info.patch_radius);
+  // The header's spacing is data like any other: 0 or a denormal (the format allows ≥ 0) would
+  // make the bandwidth, and so every step of the march, vanish. An encoder writes a patch radius
+  // of 1.6-36 spacings (8-4096 points a patch); far outside that the model cannot be rendered.
+  if (!(info.spacing >= 1e-3f * info.patch_radius && info.spacing <= 10.0f * info.patch_radius)) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "the model's point spacing %.3g does not fit its patch radius %.3g (an encoder writes 1.6 to 36 "
+                  "spacings a radius): it cannot be rendered",
+                  static_cast<double>(info.spacing), static_cast<double>(info.patch_radius));
+    return invalid_argument(text);
+  }
+  if (static_cast<double>(info.spacing) < kMinSpacing || !(info.bounds.min().cast<double>().cwiseAbs().maxCoeff() <= kMaxCoordinate) ||
+      !(info.bounds.max().cast<double>().cwiseAbs().maxCoeff() <= kMaxCoordinate)) {
+    return invalid_argument("the model's bounds reach beyond 1e18 or its spacing is below 1e-18, outside "
+                            "float32's range: it cannot be rendered");
+  }
+  h_ = bandwidth * info.spacing;
   sigma2_ = 2.0f * info.patch_radius * info.patch_radius;
 
   const std::size_t words = model.codeword_count();

@@ -14,6 +14,13 @@ constexpr std::size_t kSupportSamples = 64;
 // Refinement steps once a crossing is bracketed, and the precision they stop at, in
 // bandwidths: far below a pixel's footprint at any useful zoom.
 constexpr int kMaxIterations = 12;
+// A ray gives up after this many samples of f: far more than any surface needs (a ray grazing
+// autzen's 1.3 km of ground in half-bandwidth steps takes about 5,000), and a bound on the work
+// a ray can cost whatever the data.
+constexpr int kMaxMarchSamples = 1 << 16;
+// Every step advances t by at least this many units in the last place of the ray's coordinates,
+// so that a bandwidth below float32's resolution at the ray's distance cannot stall the march.
+constexpr float kMinStepUlps = 4.0f;
 constexpr float kTolerance = 1e-3f;
 // The grid never has more cells than this many per point (plus a few for tiny sets): cells grow
 // beyond the support radius for sparse, spread-out points instead, which costs more candidates
@@ -285,10 +292,15 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     f = n.dot(x - a);
     return true;
   };
+  // The smallest step that still moves t: a few units in the last place of |o| + |t|.
+  const float ulp_step = kMinStepUlps * std::numeric_limits<float>::epsilon() *
+                         (o.cwiseAbs().maxCoeff() + std::max(std::abs(t_min), std::abs(t_max)));
+  const float march_step = std::max(0.5f * h_, ulp_step);
   float t = t_min;
   bool have_previous = false;
   float t_previous = 0, f_previous = 0;
-  while (t <= t_max) {
+  int samples = 0;
+  while (t <= t_max && ++samples <= kMaxMarchSamples) {
     const Vec3f x = o + t * d;
     int c[3];
     for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
@@ -299,13 +311,13 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
         if (d[k] > 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k] + 1) * cell_[k] - o[k]) / d[k]);
         if (d[k] < 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k]) * cell_[k] - o[k]) / d[k]);
       }
-      t = std::max(exit, t) + 1e-3f * radius_;
+      t = std::max(exit, t) + std::max(1e-3f * radius_, ulp_step);
       have_previous = false;
       continue;
     }
     float f = 0;
     if (!f_at(t, f)) {
-      t += 0.5f * h_;
+      t += march_step;
       have_previous = false;
       continue;
     }
@@ -347,7 +359,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     // At least half the bandwidth, and up to 90% of the distance to the local plane (along the
     // ray the plane is at least that far): a surface is found unless two crossings lie closer
     // than the step. The last sample is at t_max, so a crossing just before it is not lost.
-    t += std::max(0.5f * h_, 0.9f * std::abs(f));
+    t += std::max(march_step, 0.9f * std::abs(f));
     if (t > t_max && t_previous < t_max) t = t_max;
   }
   return std::nullopt;

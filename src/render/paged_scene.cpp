@@ -95,7 +95,7 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
   const auto start = std::chrono::steady_clock::now();
   budget_ = budget;
   bounds_ = cloud.bounding_box();
-  const double spacing = std::max(nominal_spacing(cloud), 1e-30);
+  SSPC_ASSIGN_OR_RETURN(const double spacing, render::surface_spacing(cloud));
   h_ = static_cast<float>(static_cast<double>(bandwidth) * spacing);
   const float r = render::MlsSurface(std::span<const Vec3f>(), std::span<const Vec3f>(), h_).support_radius();
 

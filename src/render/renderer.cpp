@@ -86,7 +86,7 @@ StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud(const Point
   if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
   const auto start = std::chrono::steady_clock::now();
   progress_begin(progress, "scene", 1, "surfaces");
-  const double spacing = std::max(nominal_spacing(cloud), 1e-30);
+  SSPC_ASSIGN_OR_RETURN(const double spacing, render::surface_spacing(cloud));
   const auto h = static_cast<float>(static_cast<double>(bandwidth) * spacing);
   auto scene = std::make_unique<PointCloudScene>(cloud, h);
   scene->set_build(seconds_since(start));

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "sspc/neighbors.hpp"
+
 namespace sspc::render {
 
 namespace {
@@ -49,6 +51,13 @@ Status check_options(const RenderOptions& o) {
     return invalid_argument("the camera needs distinct eye and target and an up vector not along the view");
   }
   return Status();
+}
+
+StatusOr<double> surface_spacing(const PointCloud& cloud) {
+  SSPC_RETURN_IF_ERROR(check_coordinate_range(cloud.positions));
+  const double spacing = nominal_spacing(cloud);
+  SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
+  return spacing;
 }
 
 Frame::Frame(int width, int height)

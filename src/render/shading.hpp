@@ -16,6 +16,11 @@ namespace sspc::render {
 // Option checks common to both renderers.
 Status check_options(const RenderOptions& options);
 
+// The nominal spacing of a cloud to render (of its distinct positions, nominal_spacing), checked
+// against float32's limits (check_geometry_range): the MLS bandwidth is a multiple of it, and a
+// ray marches in steps of half the bandwidth, so a spacing of 0 would never move.
+StatusOr<double> surface_spacing(const PointCloud& cloud);
+
 class Frame {
  public:
   Frame(int width, int height);

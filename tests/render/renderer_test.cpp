@@ -4,13 +4,20 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <zlib.h>
+
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <algorithm>
 #include <numbers>
 #include <random>
 #include <vector>
 
 #include "render/camera.hpp"
+#include "render/mls_surface.hpp"
 #include "sspc/render.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
@@ -20,6 +27,11 @@
 
 namespace sspc {
 namespace {
+
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 struct SphereScene {
   PointCloud cloud = synthetic::sphere(40000, 1.0);
@@ -121,6 +133,53 @@ TEST(Renderer, BadOptionsAreRefused) {
   PointCloud no_normals = scene.cloud;
   no_normals.normals.clear();
   EXPECT_FALSE(render_point_cloud(no_normals, scene.options).ok());
+}
+
+// A bandwidth far below float32's resolution at the ray's distance (a hostile header, a cloud of
+// doubled points before the spacing ignored duplicates) cannot stall the march: each step moves
+// t by a few units in the last place at least, and a ray stops after a bounded number of samples.
+TEST(MlsSurface, AVanishingBandwidthStillEnds) {
+  std::vector<Vec3f> points, normals;
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      points.emplace_back(0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y), 0.0f);
+      normals.emplace_back(0.0f, 0.0f, 1.0f);
+    }
+  }
+  for (const float h : {1e-9f, 1e-30f}) {
+    const render::MlsSurface surface(points, normals, h);
+    for (int r = 0; r < 4; ++r) {
+      const Vec3f o(0.1f * static_cast<float>(r), 0.2f, 4.0f);
+      const Vec3f d = (Vec3f(0.2f, 0.2f, 0.0f) - o).normalized();
+      const auto hit = surface.intersect(o, d, 0.0f, 10.0f);  // returning at all is the test
+      if (hit) {
+        EXPECT_LE(hit->evaluations, (1 << 16) + 16);
+      }
+    }
+  }
+}
+
+// A valid model whose header spacing is 0 or a denormal (the format allows ≥ 0) is refused with
+// a message naming the spacing, rather than rendered in steps that never move.
+TEST(Renderer, CompressedModelWithAVanishingSpacingIsRefused) {
+  SphereScene scene;
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  EncodeOptions encode_options;
+  encode_options.level = 9;
+  ASSERT_TRUE(encode(scene.cloud, path, encode_options).ok());
+  const std::string bytes = slurp(path);
+  for (const float spacing : {0.0f, 1e-30f, 1.4e-45f}) {
+    std::string hostile = bytes;
+    std::memcpy(hostile.data() + 24, &spacing, 4);  // the header's spacing; its CRC32 at 192
+    const auto crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(hostile.data()), 192));
+    std::memcpy(hostile.data() + 192, &crc, 4);
+    auto model = CompressedModel::from_bytes(hostile);
+    ASSERT_TRUE(model.ok()) << model.status().to_string();
+    const auto image = render_compressed(*model, scene.options);
+    ASSERT_FALSE(image.ok());
+    EXPECT_NE(image.status().message().find("spacing"), std::string::npos) << image.status().to_string();
+  }
 }
 
 // The compressed model of the sphere, rendered directly, agrees with the uncompressed render:
