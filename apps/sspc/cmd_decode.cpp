@@ -40,13 +40,7 @@ std::optional<Box3f> parse_box(const std::string& text) {
 }
 
 int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
-  std::error_code ec;
-  if (std::filesystem::exists(o.output, ec) && std::filesystem::equivalent(o.input, o.output, ec)) {
-    return report_failure(invalid_argument(o.output + ": is the input; refusing to overwrite it"));
-  }
-  if (!o.force && std::filesystem::exists(o.output, ec)) {
-    return report_failure(invalid_argument(o.output + ": exists; pass -f/--force to overwrite it"));
-  }
+  if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto model = CompressedModel::open(o.input);
   if (!model.ok()) return report_failure(model.status());

@@ -32,13 +32,7 @@ struct EncodeCliOptions {
 };
 
 int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
-  std::error_code ec;
-  if (std::filesystem::exists(o.output, ec) && std::filesystem::equivalent(o.input, o.output, ec)) {
-    return report_failure(invalid_argument(o.output + ": is the input; refusing to overwrite it"));
-  }
-  if (!o.force && std::filesystem::exists(o.output, ec)) {
-    return report_failure(invalid_argument(o.output + ": exists; pass -f/--force to overwrite it"));
-  }
+  if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto progress = make_progress(global);
   ReadOptions read;
@@ -59,7 +53,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
   auto stats = encode(std::move(*cloud), o.output, options);
-  if (!stats.ok()) return report_failure(stats.status().with_context(o.input + ": "));
+  if (!stats.ok()) return report_failure(stats.status().with_context(o.input));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double rate = seconds > 0 ? static_cast<double>(stats->points) / seconds : 0;
 
@@ -121,9 +115,9 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--patch-points", o->patch_points, "Expected points per patch (overrides the level)")
       ->check(CLI::Range(8, 4096));
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_in(0, 1000, true));
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_in(0, 1000, true));
   app->add_option("--position-bits", o->position_bits,
                   "Code-word grid: 2 patch radii in 2^bits steps (overrides the level's step)")
       ->check(CLI::Range(4, 16));

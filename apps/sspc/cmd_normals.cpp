@@ -25,14 +25,7 @@ struct NormalsOptions {
 };
 
 int run_normals(const NormalsOptions& options, const GlobalOptions& global) {
-  std::error_code ec;
-  if (std::filesystem::equivalent(options.input, options.output, ec)) {
-    return report_failure(invalid_argument(options.output + ": refusing to overwrite the input"));
-  }
-  if (!options.force && std::filesystem::exists(options.output)) {
-    return report_failure(
-        invalid_argument(options.output + ": exists; pass --force to overwrite it"));
-  }
+  if (Status s = check_outputs({options.input}, {options.output}, options.force); !s.ok()) return report_failure(s);
   auto progress = make_progress(global);
   const auto t0 = std::chrono::steady_clock::now();
   ReadOptions read_options;

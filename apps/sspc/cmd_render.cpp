@@ -1,11 +1,13 @@
 // sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
 // directly, without decoding it (SPEC step 10, paper §5).
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <sstream>
 #include <string>
@@ -40,12 +42,33 @@ struct RenderCliOptions {
   bool json = false;
 };
 
+// One camera of a camera path: what its line gives (up and the field of view are optional).
+struct CameraLine {
+  Vec3f eye, target;
+  std::optional<Vec3f> up;
+  std::optional<float> fov;
+
+  Camera with_defaults(const Camera& defaults) const {
+    Camera c = defaults;
+    c.eye = eye;
+    c.target = target;
+    if (up) c.up = *up;
+    if (fov) c.fov_degrees = *fov;
+    return c;
+  }
+};
+
 // One camera per line: eye x y z, target x y z, then optionally up x y z and the vertical field of
-// view in degrees; numbers separated by spaces or commas; '#' starts a comment.
-StatusOr<std::vector<Camera>> read_camera_path(const std::string& path, const Camera& defaults) {
+// view in degrees; numbers separated by spaces or commas; '#' starts a comment. Read before the
+// scene is built, so that every frame's file is known (and checked) before anything is written.
+StatusOr<std::vector<CameraLine>> read_camera_path(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return invalid_argument(path + ": the camera path is not a regular file");
+  }
   std::ifstream in(path);
   if (!in) return not_found(path + ": cannot open the camera path");
-  std::vector<Camera> cameras;
+  std::vector<CameraLine> cameras;
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {
@@ -72,11 +95,12 @@ StatusOr<std::vector<Camera>> read_camera_path(const std::string& path, const Ca
                               ": a camera is eye x y z, target x y z [, up x y z [, fov]]: 6, 9 or 10 numbers, got " +
                               std::to_string(v.size()));
     }
-    Camera c = defaults;
-    c.eye = Vec3f(v[0], v[1], v[2]);
-    c.target = Vec3f(v[3], v[4], v[5]);
+    for (const float x : v) {
+      if (!std::isfinite(x)) return invalid_argument(path + ":" + std::to_string(number) + ": a number is not finite");
+    }
+    CameraLine c{Vec3f(v[0], v[1], v[2]), Vec3f(v[3], v[4], v[5]), std::nullopt, std::nullopt};
     if (v.size() >= 9) c.up = Vec3f(v[6], v[7], v[8]);
-    if (v.size() == 10) c.fov_degrees = v[9];
+    if (v.size() == 10) c.fov = v[9];
     cameras.push_back(c);
     if (cameras.size() > 100000) return invalid_argument(path + ": more than 100000 cameras");
   }
@@ -114,36 +138,45 @@ std::string default_times_path(const std::string& output) {
   return p.replace_extension(".csv").string();
 }
 
+// "WIDTHxHEIGHT", each side 1..16384 pixels.
 bool parse_size(const std::string& text, int& w, int& h) {
   const auto x = text.find('x');
   if (x == std::string::npos) return false;
-  try {
-    std::size_t used = 0;
-    w = std::stoi(text.substr(0, x), &used);
-    if (used != x) return false;
-    h = std::stoi(text.substr(x + 1), &used);
-    return used == text.size() - x - 1;
-  } catch (...) {
-    return false;
-  }
+  const auto side = [](const char* begin, const char* end, int& v) {
+    const auto r = std::from_chars(begin, end, v);
+    return r.ec == std::errc() && r.ptr == end && v >= 1 && v <= 16384;
+  };
+  return side(text.data(), text.data() + x, w) && side(text.data() + x + 1, text.data() + text.size(), h);
 }
 
 int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   RenderOptions options;
   if (!parse_size(o.size, options.width, options.height)) {
-    return report_failure(invalid_argument("--size must be WIDTHxHEIGHT, got '" + o.size + "'"));
-  }
-  if (!o.camera_path.empty() && o.orbit > 0) {
-    return report_failure(invalid_argument("--camera-path and --orbit exclude each other"));
+    return report_failure(internal_error("--size passed its validator but does not parse: " + o.size));
   }
   const bool sequence = !o.camera_path.empty() || o.orbit > 0;
+  std::vector<CameraLine> path_cameras;
+  if (!o.camera_path.empty()) {
+    auto lines = read_camera_path(o.camera_path);
+    if (!lines.ok()) return report_failure(lines.status());
+    path_cameras = std::move(lines).value();
+  }
+  const std::size_t frame_count = !o.camera_path.empty() ? path_cameras.size() : o.orbit > 0 ? static_cast<std::size_t>(o.orbit) : 1;
   const std::string times = o.times.empty() ? default_times_path(o.output) : o.times;
-  if (!o.force) {
-    std::error_code ec;
-    const std::string first = sequence ? frame_path(o.output, 0) : o.output;
-    for (const std::string& path : sequence ? std::vector<std::string>{first, times} : std::vector<std::string>{first}) {
-      if (std::filesystem::exists(path, ec)) {
-        return report_failure(invalid_argument(path + ": exists; pass -f/--force to overwrite it"));
+  std::vector<std::string> outputs;
+  for (std::size_t f = 0; f < (sequence ? frame_count : 1); ++f) outputs.push_back(sequence ? frame_path(o.output, f) : o.output);
+  if (sequence) outputs.push_back(times);
+  std::vector<std::string> inputs{o.input};
+  if (!o.camera_path.empty()) inputs.push_back(o.camera_path);
+  if (Status s = check_outputs(inputs, outputs, o.force); !s.ok()) return report_failure(s);
+  if (sequence) {
+    // Every frame and the times CSV are staged beside them and moved into place together at the
+    // end: a sequence that fails leaves nothing behind. They must then share one folder.
+    for (const std::string& out : outputs) {
+      std::error_code a, b;
+      if (std::filesystem::weakly_canonical(std::filesystem::path(out).parent_path(), a) !=
+          std::filesystem::weakly_canonical(std::filesystem::path(outputs.front()).parent_path(), b)) {
+        return report_failure(invalid_argument(times + ": the times file must be in the frames' folder"));
       }
     }
   }
@@ -166,7 +199,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     if (!cloud.ok()) return report_failure(cloud.status());
     NormalOptions normals;
     normals.progress = progress.get();
-    if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input + ": "));
+    if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input));
     points = cloud->size();
     if (o.budget_mib > 0) {
       const auto budget = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
@@ -177,7 +210,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
       scene = RenderScene::from_point_cloud(*cloud, o.bandwidth, progress.get());
     }
   }
-  if (!scene.ok()) return report_failure(scene.status().with_context(o.input + ": "));
+  if (!scene.ok()) return report_failure(scene.status().with_context(o.input));
 
   Camera framing = frame_bounds((*scene)->bounds(), o.fov);
   if (auto v = parse_vec3(o.eye)) framing.eye = *v;
@@ -185,11 +218,14 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   if (auto v = parse_vec3(o.up)) framing.up = *v;
   std::vector<Camera> cameras{framing};
   if (!o.camera_path.empty()) {
-    auto path = read_camera_path(o.camera_path, framing);
-    if (!path.ok()) return report_failure(path.status());
-    cameras = std::move(path).value();
+    cameras.clear();
+    for (const CameraLine& line : path_cameras) cameras.push_back(line.with_defaults(framing));
   } else if (o.orbit > 0) {
     cameras = orbit_cameras(framing, o.orbit);
+  }
+  StagingDirectory staging;
+  if (sequence) {
+    if (Status s = staging.open(std::filesystem::path(outputs.front()).parent_path()); !s.ok()) return report_failure(s);
   }
 
   std::vector<RenderStats> frames;
@@ -203,9 +239,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     RenderStats stats;
     auto image = (*scene)->render(options, &stats);
     if (!image.ok()) {
-      return report_failure(image.status().with_context(o.input + (sequence ? " frame " + std::to_string(f) : "") + ": "));
+      return report_failure(image.status().with_context(o.input + (sequence ? " frame " + std::to_string(f) : "")));
     }
-    const std::string path = sequence ? frame_path(o.output, f) : o.output;
+    const std::string path = sequence ? staging.stage(frame_path(o.output, f)).string() : o.output;
     if (Status s = write_png(*image, path); !s.ok()) return report_failure(s);
     const double rps = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
     char row[512];
@@ -222,9 +258,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   }
   if (sequence) progress_end(progress.get());
   if (sequence) {
-    if (Status s = write_file_atomically(times, std::as_bytes(std::span(csv.data(), csv.size()))); !s.ok()) {
+    const std::filesystem::path staged = staging.stage(times);
+    if (Status s = write_file_atomically(staged, std::as_bytes(std::span(csv.data(), csv.size()))); !s.ok()) {
       return report_failure(s);
     }
+    if (Status s = staging.commit(); !s.ok()) return report_failure(s);
   }
 
   RenderStats total;
@@ -299,12 +337,19 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   CLI::App* app = root.add_subcommand("render", "Ray-trace a point cloud's or a compressed model's MLS surface into a PNG");
   app->add_option("input", o->input, "Point cloud (PLY, XYZ/PTS, PCD) or compressed model (.sspc)")->required();
   app->add_option("-o,--output", o->output, "PNG file to write")->required();
-  app->add_option("--size", o->size, "Image size WIDTHxHEIGHT")->capture_default_str();
+  app->add_option("--size", o->size, "Image size WIDTHxHEIGHT, 1..16384 pixels a side")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            int w = 0, h = 0;
+            return parse_size(text, w, h) ? std::string() : "expected WIDTHxHEIGHT, each 1..16384, got '" + text + "'";
+          },
+          "WxH"))
+      ->capture_default_str();
   app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator);
   app->add_option("--target", o->target, "Point the camera looks at (default: the cloud's centre)")->check(kVec3Validator);
   app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator);
-  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(CLI::Range(1.0f, 170.0f))->capture_default_str();
-  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(CLI::Range(0.5f, 20.0f))->capture_default_str();
+  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(number_in(1, 170))->capture_default_str();
+  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(number_in(0.5, 20))->capture_default_str();
   const std::map<std::string, Shade> shades{{"lambert", Shade::kLambert},
                                             {"normal", Shade::kNormal},
                                             {"depth", Shade::kDepth},
@@ -320,14 +365,16 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--memory-budget", o->budget_mib,
                   "MiB a point cloud's scene may hold: its points are paged in from a file through a cache of that "
                   "size (a compressed model is reported against it)")
-      ->check(CLI::Range(1.0, 1e7));
-  app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)");
+      ->check(number_in(1, 1e7));
+  app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)")
+      ->check(CLI::ExistingDirectory);
   app->add_option("--camera-path", o->camera_path,
                   "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
                   "frames go to OUT_0000.png, ... and each frame's time to a CSV")
       ->check(CLI::ExistingFile);
   app->add_option("--orbit", o->orbit, "Render a sequence of N frames circling the target (as --camera-path)")
-      ->check(CLI::Range(1, 100000));
+      ->check(CLI::Range(1, 100000))
+      ->excludes("--camera-path");
   app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)");
   app->add_flag("-f,--force", o->force, "Overwrite existing output files");
   app->add_flag("--json", o->json, "Machine-readable statistics on stdout");

@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
@@ -47,6 +48,17 @@ std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);
 
 // Prints `text` and a newline to stdout.
 void print_line(const std::string& text);
+
+// Checks, before anything is read or written, that each of `outputs` may be written: not one of
+// the `inputs` (refused even with --force), not a directory, device, FIFO or socket (refused even
+// with --force: the rename that commits an output would replace the node itself), a file name of
+// at most NAME_MAX bytes in an existing, writable directory, no two outputs the same file, and
+// no existing file unless `force`.
+Status check_outputs(const std::vector<std::string>& inputs, const std::vector<std::string>& outputs, bool force);
+
+// A CLI11 validator for numbers in [lo, hi] (or (lo, hi] with `open_low`): NaN, infinities and
+// text that is not wholly a number are usage errors, like any value out of range.
+CLI::Validator number_in(double lo, double hi, bool open_low = false);
 
 // A CLI11 validator for "x,y,z" triples and its parser.
 std::optional<Vec3f> parse_vec3(const std::string& text);

@@ -2,13 +2,16 @@
 
 #include <atomic>
 #include <cerrno>
+#include <climits>
 #include <csignal>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <vector>
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 namespace sspc {
@@ -24,11 +27,12 @@ constexpr std::size_t kTempPathMax = 4096;
 struct TempSlot {
   std::atomic<bool> taken{false};  // owned by a writer
   std::atomic<bool> live{false};   // path is complete and the file may exist
+  std::atomic<bool> folder{false};  // path is a StagingDirectory: empty it, then remove it
   char path[kTempPathMax];
 };
 TempSlot g_temp_slots[kTempSlots];
 
-int register_temporary(const std::filesystem::path& path) {
+int register_temporary(const std::filesystem::path& path, bool folder = false) {
   const std::string& s = path.native();
   if (s.size() >= kTempPathMax) return -1;
   for (int i = 0; i < kTempSlots; ++i) {
@@ -36,6 +40,7 @@ int register_temporary(const std::filesystem::path& path) {
     bool expected = false;
     if (!slot.taken.compare_exchange_strong(expected, true)) continue;
     std::memcpy(slot.path, s.c_str(), s.size() + 1);
+    slot.folder.store(folder, std::memory_order_relaxed);
     slot.live.store(true, std::memory_order_release);
     return i;
   }
@@ -48,9 +53,42 @@ void unregister_temporary(int i) {
   g_temp_slots[i].taken.store(false, std::memory_order_release);
 }
 
+// Removes every entry of the folder `path` (files only: a StagingDirectory holds no folders),
+// then the folder, with system calls alone, as a signal handler may.
+void remove_folder_in_handler(const char* path) {
+  const int fd = ::open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd >= 0) {
+    alignas(8) char buffer[4096];
+    for (;;) {
+      const long n = syscall(SYS_getdents64, fd, buffer, sizeof buffer);
+      if (n <= 0) break;
+      for (long at = 0; at < n;) {
+        struct Entry {
+          std::uint64_t inode;
+          std::int64_t offset;
+          unsigned short length;
+          unsigned char type;
+          char name[1];
+        };
+        const auto* e = reinterpret_cast<const Entry*>(buffer + at);
+        const bool dot = e->name[0] == '.' && (e->name[1] == '\0' || (e->name[1] == '.' && e->name[2] == '\0'));
+        if (!dot) unlinkat(fd, e->name, 0);
+        at += e->length;
+      }
+    }
+    ::close(fd);
+  }
+  rmdir(path);
+}
+
 extern "C" void remove_temporaries_and_reraise(int sig) {
   for (TempSlot& slot : g_temp_slots) {
-    if (slot.live.load(std::memory_order_acquire)) unlink(slot.path);
+    if (!slot.live.load(std::memory_order_acquire)) continue;
+    if (slot.folder.load(std::memory_order_relaxed)) {
+      remove_folder_in_handler(slot.path);
+    } else {
+      unlink(slot.path);
+    }
   }
   std::signal(sig, SIG_DFL);
   std::raise(sig);
@@ -74,7 +112,12 @@ Status AtomicFileWriter::open(const std::filesystem::path& target) {
   target_ = target;
   std::filesystem::path dir = target.parent_path();
   if (dir.empty()) dir = ".";
-  std::string pattern = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  // "." + name + ".tmp-XXXXXX", the name shortened so that the whole stays within NAME_MAX
+  // (a 250-byte target name is legal; its temporary name must be too).
+  constexpr std::size_t kSuffix = 12;  // "." and ".tmp-XXXXXX"
+  std::string stem = target.filename().string();
+  if (stem.size() + kSuffix > NAME_MAX) stem.resize(NAME_MAX - kSuffix);
+  std::string pattern = (dir / ("." + stem + ".tmp-XXXXXX")).string();
   std::vector<char> name(pattern.begin(), pattern.end());
   name.push_back('\0');
   const int fd = mkstemp(name.data());
@@ -149,6 +192,55 @@ void AtomicFileWriter::abandon() {
     std::filesystem::remove(temp_, ec);
     temp_.clear();
   }
+  unregister_temporary(slot_);
+  slot_ = -1;
+}
+
+StagingDirectory::~StagingDirectory() { abandon(); }
+
+Status StagingDirectory::open(const std::filesystem::path& dir) {
+  abandon();
+  const std::filesystem::path where = dir.empty() ? std::filesystem::path(".") : dir;
+  std::string pattern = (where / ".sspc-staging-XXXXXX").string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+  if (mkdtemp(name.data()) == nullptr) {
+    return io_error(where.string() + ": cannot create a temporary folder: " + errno_text());
+  }
+  dir_ = name.data();
+  slot_ = register_temporary(dir_, true);
+  return Status();
+}
+
+std::filesystem::path StagingDirectory::stage(const std::filesystem::path& target) {
+  std::filesystem::path staged = dir_ / target.filename();
+  staged_.emplace_back(staged, target);
+  return staged;
+}
+
+Status StagingDirectory::commit() {
+  if (dir_.empty()) return internal_error("StagingDirectory::commit before open");
+  for (const auto& [staged, target] : staged_) {
+    std::error_code ec;
+    std::filesystem::rename(staged, target, ec);
+    if (ec) {
+      const std::string why = ec.message();
+      abandon();
+      return io_error(target.string() + ": cannot move the finished file into place: " + why);
+    }
+  }
+  staged_.clear();
+  abandon();
+  return Status();
+}
+
+void StagingDirectory::abandon() {
+  if (!dir_.empty()) {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+    dir_.clear();
+  }
+  staged_.clear();
   unregister_temporary(slot_);
   slot_ = -1;
 }

@@ -15,6 +15,8 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "sspc/status.hpp"
 
@@ -42,6 +44,32 @@ class AtomicFileWriter {
   std::filesystem::path temp_;
   std::FILE* file_ = nullptr;
   int slot_ = -1;  // in the table of temporary files a signal handler removes
+};
+
+// Several files that appear together or not at all (a rendered sequence and its times): each is
+// written complete into a hidden folder beside the targets, and commit() renames them into
+// place one by one. Until then nothing outside the folder changes; abandon(), the destructor,
+// and the signal handlers of remove_temporary_files_on_signals() remove the folder and what it
+// holds.
+class StagingDirectory {
+ public:
+  StagingDirectory() = default;
+  StagingDirectory(const StagingDirectory&) = delete;
+  StagingDirectory& operator=(const StagingDirectory&) = delete;
+  ~StagingDirectory();
+
+  // Creates the folder in `dir` (where the targets are).
+  Status open(const std::filesystem::path& dir);
+  // Where to write the file that commit() moves to `target` (in the folder given to open()).
+  std::filesystem::path stage(const std::filesystem::path& target);
+  // Renames every staged file that was written to its target, then removes the folder.
+  Status commit();
+  void abandon();
+
+ private:
+  std::filesystem::path dir_;
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> staged_;  // (staged, target)
+  int slot_ = -1;
 };
 
 // Installs handlers for SIGINT, SIGTERM and SIGHUP that remove the open writers' temporary files

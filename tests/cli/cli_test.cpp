@@ -1,48 +1,19 @@
 // Runs the sspc executable the way a user does and checks exit codes, messages and outputs.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "cli_util.hpp"
 #include "sspc/io.hpp"
 #include "sspc/synthetic.hpp"
 #include "test_util.hpp"
 
 namespace sspc {
 namespace {
-
-struct CliRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// Runs `sspc ARGS` with stdout and stderr captured to files in `dir`; `shell_prefix` goes in
-// front of the command line (a `ulimit`, a `timeout`).
-CliRun sspc(const test::TempDir& dir, const std::string& args, const std::string& shell_prefix = "") {
-  const auto out = dir.path() / "stdout.txt";
-  const auto err = dir.path() / "stderr.txt";
-  const std::string command = shell_prefix + std::string(SSPC_CLI_PATH) + " " + args + " >" + out.string() +
-                              " 2>" + err.string() + " </dev/null";
-  const int status = std::system(command.c_str());
-  CliRun run;
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  run.out = slurp(out);
-  run.err = slurp(err);
-  return run;
-}
-
-std::string bunny() { return std::string(SSPC_SOURCE_DIR) + "/data/bunny.ply"; }
 
 TEST(Cli, HelpAndUsageErrors) {
   test::TempDir dir;
@@ -267,7 +238,7 @@ TEST(Cli, RenderWritesAPng) {
   ASSERT_GT(png.size(), 8u);
   EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   EXPECT_EQ(png, slurp(two));
-  EXPECT_EQ(sspc(dir, "render " + bunny() + " -o " + one + " -f --size 48").exit_code, 1);
+  EXPECT_EQ(sspc(dir, "render " + bunny() + " -o " + one + " -f --size 48").exit_code, 2);  // a usage error
   const std::string model = (dir.path() / "m.sspc").string();
   ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model).exit_code, 0);
   EXPECT_EQ(sspc(dir, "render " + model + " -o " + one + " -f --size 48x40 --shade codeword").exit_code, 0);

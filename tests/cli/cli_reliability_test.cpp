@@ -1,0 +1,188 @@
+// Hostile and unusual inputs and outputs at the command line: every case ends within seconds with
+// a clear message and the documented exit code, and nothing is lost or overwritten.
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+#include <zlib.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "cli_util.hpp"
+#include "sspc/io.hpp"
+#include "test_util.hpp"
+
+namespace sspc {
+namespace {
+
+// Every run gets a hard time limit: a hang fails the test instead of the suite.
+const std::string kLimit = "timeout 60 ";
+
+std::string write_cloud(const test::TempDir& dir, const std::string& name, const PointCloud& cloud) {
+  const auto path = dir.path() / name;
+  EXPECT_TRUE(write_ply(cloud, path).ok());
+  return path.string();
+}
+
+PointCloud read_bunny() {
+  auto cloud = read_point_cloud(bunny());
+  EXPECT_TRUE(cloud.ok());
+  return std::move(cloud).value();
+}
+
+// The bunny with every point written twice: the median nearest-neighbour distance is 0 and a
+// march whose step was derived from it never moved.
+TEST(CliReliability, RenderOfADoubledCloudFinishes) {
+  test::TempDir dir;
+  PointCloud doubled = read_bunny();
+  const std::size_t n = doubled.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    doubled.positions.push_back(doubled.positions[i]);
+    doubled.normals.push_back(doubled.normals[i]);
+  }
+  const std::string input = write_cloud(dir, "doubled.ply", doubled);
+  const std::string single = (dir.path() / "single.png").string(), twice = (dir.path() / "twice.png").string();
+  ASSERT_EQ(sspc(dir, "render " + bunny() + " -o " + single + " --size 40x32").exit_code, 0);
+  const CliRun run = sspc(dir, "render " + input + " -o " + twice + " --size 40x32", kLimit);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  // Twice the points with the same normals: the same weighted averages, the same surface.
+  EXPECT_EQ(slurp(single), slurp(twice));
+}
+
+// A valid .sspc whose header spacing is 0 or a denormal (the format allows it) is refused by
+// render with a message, instead of a march that never advances.
+TEST(CliReliability, RenderOfAModelWithAVanishingSpacingFails) {
+  test::TempDir dir;
+  const std::string model = (dir.path() / "m.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model + " -l 9").exit_code, 0);
+  std::string bytes = slurp(model);
+  for (const float spacing : {0.0f, 1e-30f, 1.4e-45f}) {
+    std::string hostile = bytes;
+    std::memcpy(hostile.data() + 24, &spacing, 4);  // header: spacing at byte 24, CRC32 of 0..191 at 192
+    const auto crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(hostile.data()), 192));
+    std::memcpy(hostile.data() + 192, &crc, 4);
+    const auto path = dir.path() / "hostile.sspc";
+    { std::ofstream(path, std::ios::binary) << hostile; }
+    ASSERT_EQ(sspc(dir, "verify " + path.string()).exit_code, 0) << "the model must be valid but for its spacing";
+    const CliRun run = sspc(dir, "render " + path.string() + " -o " + (dir.path() / "x.png").string() + " --size 32x32", kLimit);
+    EXPECT_EQ(run.exit_code, 1) << spacing;
+    EXPECT_NE(run.err.find("spacing"), std::string::npos) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "x.png"));
+  }
+}
+
+// Coordinates float32 cannot square (an outlier at 1e20, a cloud scaled by 1e30 or 1e-30) are
+// refused by every geometric command, naming the problem, instead of an overflow in a grid index
+// or an internal error.
+TEST(CliReliability, OutOfRangeCoordinatesFailClearly) {
+  test::TempDir dir;
+  const PointCloud bunny_cloud = read_bunny();
+  PointCloud outlier = bunny_cloud;
+  outlier.positions[0].x() = 1e20f;
+  PointCloud huge = bunny_cloud, tiny = bunny_cloud, spread = bunny_cloud;
+  for (Vec3f& p : huge.positions) p *= 1e30f;
+  for (Vec3f& p : tiny.positions) p *= 1e-30f;
+  spread.positions[0].x() = 1e16f;  // within float's range, but 10^18 spacings from the rest
+  struct Case {
+    const char* name;
+    const PointCloud* cloud;
+    const char* says;
+  };
+  for (const Case& c : {Case{"outlier.ply", &outlier, "coordinates reach"}, Case{"huge.ply", &huge, "coordinates reach"},
+                        Case{"tiny.ply", &tiny, "spacing"}, Case{"spread.ply", &spread, "spacings"}}) {
+    const std::string input = write_cloud(dir, c.name, *c.cloud);
+    const std::string out = (dir.path() / "out").string();
+    for (const std::string& command : {"encode " + input + " " + out + ".sspc", "render " + input + " -o " + out + ".png --size 32x32"}) {
+      const CliRun run = sspc(dir, command, kLimit);
+      EXPECT_EQ(run.exit_code, 1) << command << "\n" << run.err;
+      EXPECT_NE(run.err.find(c.says), std::string::npos) << command << "\n" << run.err;
+      EXPECT_NE(run.err.find(c.name), std::string::npos) << run.err;
+      EXPECT_EQ(run.err.find(": :"), std::string::npos) << "an empty context: " << run.err;
+    }
+  }
+}
+
+TEST(CliReliability, MalformedValuesAreUsageErrors) {
+  test::TempDir dir;
+  const std::string png = " -o " + (dir.path() / "x.png").string();
+  const std::string model = " " + (dir.path() / "x.sspc").string();
+  for (const std::string& args :
+       {"render " + bunny() + png + " --size 12x", "render " + bunny() + png + " --size 0x8",
+        "render " + bunny() + png + " --size 99999x8", "render " + bunny() + png + " --fov nan",
+        "render " + bunny() + png + " --bandwidth nan", "render " + bunny() + png + " --bandwidth inf",
+        "render " + bunny() + png + " --memory-budget 8 --page-dir /nonexistent-sspc",
+        "render " + bunny() + png + " --orbit 2 --camera-path " + bunny(), "encode " + bunny() + model + " --epsilon nan",
+        "encode " + bunny() + model + " --tau nan", "encode " + bunny() + model + " --epsilon 1e30",
+        "encode " + bunny() + model + " --tau 0"}) {
+    const CliRun run = sspc(dir, args);
+    EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.err;
+  }
+  EXPECT_EQ(test::count_files(dir.path()), 2u) << "only stdout.txt and stderr.txt";
+}
+
+// Every output is checked before anything is written: not an input (even with --force), not a
+// special file, not existing without --force, frames of a sequence included.
+TEST(CliReliability, OutputsAreCheckedBeforeAnythingIsWritten) {
+  test::TempDir dir;
+  const auto input = dir.path() / "in.ply";
+  std::filesystem::copy_file(bunny(), input);
+  const std::string before = slurp(input);
+  CliRun run = sspc(dir, "render " + input.string() + " -o " + input.string() + " -f --size 16x16");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("is the input"), std::string::npos) << run.err;
+  EXPECT_EQ(slurp(input), before);
+
+  // The third frame exists: the orbit stops before its first frame.
+  { std::ofstream(dir.path() / "f_0002.png") << "keep"; }
+  run = sspc(dir, "render " + input.string() + " -o " + (dir.path() / "f.png").string() + " --orbit 4 --size 16x16");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("f_0002.png: exists"), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "f_0000.png"));
+  EXPECT_EQ(slurp(dir.path() / "f_0002.png"), "keep");
+
+  // Special files are refused even with --force: the rename would replace the node.
+  const auto fifo = dir.path() / "pipe";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  run = sspc(dir, "decode x.sspc " + fifo.string() + " -f", kLimit);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("a FIFO"), std::string::npos) << run.err;
+  run = sspc(dir, "normals " + input.string() + " /dev/null -f");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("character device"), std::string::npos) << run.err;
+  EXPECT_TRUE(std::filesystem::is_character_file("/dev/null"));
+  run = sspc(dir, "normals " + input.string() + " " + dir.path().string() + " -f");
+  EXPECT_EQ(run.exit_code, 1);
+  run = sspc(dir, "normals " + input.string() + " " + (dir.path() / "no-such-folder" / "o.ply").string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("does not exist"), std::string::npos) << run.err;
+
+  // A 250-byte name is legal (NAME_MAX is 255), and so must be its temporary name.
+  const std::string long_name = std::string(246, 'a') + ".ply";
+  run = sspc(dir, "normals " + input.string() + " " + (dir.path() / long_name).string());
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / long_name));
+  run = sspc(dir, "normals " + input.string() + " " + (dir.path() / (std::string(256, 'b') + ".ply")).string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("longer than"), std::string::npos) << run.err;
+}
+
+// A sequence whose third camera cannot be rendered leaves neither the frames before it nor a
+// temporary folder.
+TEST(CliReliability, AFailedSequenceLeavesNoFrames) {
+  test::TempDir dir;
+  const auto path = dir.path() / "path.txt";
+  { std::ofstream(path) << "0 0.1 0.4 -0.02 0.1 0\n0.3 0.1 0.3 -0.02 0.1 0\n1 1 1 1 1 1\n"; }
+  const auto out = dir.path() / "out";
+  std::filesystem::create_directory(out);
+  const CliRun run =
+      sspc(dir, "render " + bunny() + " -o " + (out / "f.png").string() + " --size 16x16 --camera-path " + path.string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("frame 2"), std::string::npos) << run.err;
+  EXPECT_EQ(test::count_files(out), 0u);
+}
+
+}  // namespace
+}  // namespace sspc
