@@ -5,7 +5,9 @@
 // - encode() succeeds, except with kInvalidArgument for the inputs it documents (fewer than 16
 //   points, all points at one place);
 // - what it wrote opens, verifies and decodes to a valid, non-empty cloud;
-// - encoding the same cloud again gives the same bytes (the encoder is deterministic).
+// - encoding the same cloud again gives the same bytes (the encoder is deterministic);
+// - the model renders directly, and its decoded cloud renders, or fails with a message (whatever
+//   the encoder writes, the renderer accepts: its checks of a model's spacing must not refuse it).
 #include <unistd.h>
 
 #include <cstddef>
@@ -20,6 +22,8 @@
 #include "fuzz_util.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/encoder.hpp"
+#include "sspc/normals.hpp"
+#include "sspc/render.hpp"
 
 namespace {
 
@@ -91,6 +95,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   SSPC_FUZZ_CHECK(decoded->validate().ok());
   SSPC_FUZZ_CHECK(decoded->has_normals() == options.store_normals);
   SSPC_FUZZ_CHECK(model->info().source_points == cloud.size());
+
+  sspc::RenderOptions render;
+  render.width = 8;
+  render.height = 8;
+  render.camera = sspc::frame_bounds(model->info().bounds, 40);
+  const auto direct = sspc::render_compressed(*model, render);
+  SSPC_FUZZ_CHECK(direct.ok());
+  SSPC_FUZZ_CHECK(direct->rgb.size() == 3u * 8u * 8u);
+  sspc::PointCloud surface = std::move(decoded).value();
+  if (sspc::ensure_normals(surface, sspc::NormalOptions{}).ok()) {
+    const auto plain = sspc::render_point_cloud(surface, render);
+    if (!plain.ok()) SSPC_FUZZ_CHECK(!plain.status().message().empty());
+  }
 
   auto again = sspc::encode(cloud, second, options);
   SSPC_FUZZ_CHECK(again.ok());

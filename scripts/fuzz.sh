@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Runs one libFuzzer target (fuzz/, docs/FUZZING.md) for SECONDS under ASan + UBSan.
+# Runs one libFuzzer target (fuzz/, docs/FUZZING.md) for SECONDS under ASan + UBSan (with
+# float-cast-overflow: a float too large for the integer it is cast to).
 #
 #   scripts/fuzz.sh TARGET SECONDS     TARGET: ply_reader pcd_reader xyz_reader sspc_decoder
-#                                              encode_roundtrip
+#                                              encode_roundtrip render
 #
 # Builds build-fuzz (clang, -fsanitize=fuzzer,address,undefined) when needed. The run works in
 # fuzz-work/TARGET/: corpus/ starts as a copy of fuzz/corpus/TARGET and keeps what the fuzzer
@@ -22,6 +23,7 @@ case "$target" in
   ply_reader | pcd_reader | xyz_reader) max_len=4096 timeout=10 ;;
   sspc_decoder) max_len=8192 timeout=10 ;;
   encode_roundtrip) max_len=6001 timeout=30 ;;  # 1 options byte + 2000 points of 3 bytes
+  render) max_len=12288 timeout=20 ;;            # .sspc models and small clouds
   *)
     echo "fuzz.sh: unknown target '$target'" >&2
     exit 2
@@ -35,7 +37,7 @@ if ! command -v clang++ >/dev/null; then
 fi
 if [ ! -f "$build/build.ninja" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DSSPC_WERROR=OFF -DSSPC_BUILD_FUZZ=ON -DSSPC_SANITIZE=address,undefined \
+    -DSSPC_WERROR=OFF -DSSPC_BUILD_FUZZ=ON -DSSPC_SANITIZE=address,undefined,float-cast-overflow \
     -DSSPC_BUILD_TESTS=OFF -DSSPC_BUILD_BENCH=OFF -DSSPC_BUILD_APPS=OFF
 fi
 cmake --build "$build" -j "${SSPC_FUZZ_JOBS:-2}" --target "${target}_fuzzer"
