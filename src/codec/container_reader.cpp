@@ -54,8 +54,9 @@ ZSTD_DCtx* thread_dctx() {
 
 StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes,
                                                 std::string name) {
-  auto fail = [&name](std::uint64_t offset, const std::string& what) {
-    return corrupt(name + ": byte " + std::to_string(offset) + ": " + what);
+  // A copy: `name` is moved into the reader below, and later failures must still name the file.
+  auto fail = [file = name](std::uint64_t offset, const std::string& what) {
+    return corrupt(file + ": byte " + std::to_string(offset) + ": " + what);
   };
   if (bytes.size() < kMagic.size() ||
       std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
