@@ -13,6 +13,7 @@
 
 #include "cli_util.hpp"
 #include "sspc/io.hpp"
+#include "sspc/synthetic.hpp"
 #include "test_util.hpp"
 
 namespace sspc {
@@ -32,6 +33,9 @@ PointCloud read_bunny() {
   EXPECT_TRUE(cloud.ok());
   return std::move(cloud).value();
 }
+
+// A small cloud with normals, for the cases where the size does not matter.
+PointCloud small_sphere() { return synthetic::sphere(3000, 1.0); }
 
 // The bunny with every point written twice: the median nearest-neighbour distance is 0 and a
 // march whose step was derived from it never moved.
@@ -57,7 +61,8 @@ TEST(CliReliability, RenderOfADoubledCloudFinishes) {
 TEST(CliReliability, RenderOfAModelWithAVanishingSpacingFails) {
   test::TempDir dir;
   const std::string model = (dir.path() / "m.sspc").string();
-  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model + " -l 9").exit_code, 0);
+  const std::string input = write_cloud(dir, "sphere.ply", small_sphere());
+  ASSERT_EQ(sspc(dir, "encode " + input + " " + model + " -l 9").exit_code, 0);
   std::string bytes = slurp(model);
   for (const float spacing : {0.0f, 1e-30f, 1.4e-45f}) {
     std::string hostile = bytes;
@@ -79,10 +84,10 @@ TEST(CliReliability, RenderOfAModelWithAVanishingSpacingFails) {
 // or an internal error.
 TEST(CliReliability, OutOfRangeCoordinatesFailClearly) {
   test::TempDir dir;
-  const PointCloud bunny_cloud = read_bunny();
-  PointCloud outlier = bunny_cloud;
+  const PointCloud base = small_sphere();
+  PointCloud outlier = base;
   outlier.positions[0].x() = 1e20f;
-  PointCloud huge = bunny_cloud, tiny = bunny_cloud, spread = bunny_cloud;
+  PointCloud huge = base, tiny = base, spread = base;
   for (Vec3f& p : huge.positions) p *= 1e30f;
   for (Vec3f& p : tiny.positions) p *= 1e-30f;
   spread.positions[0].x() = 1e16f;  // within float's range, but 10^18 spacings from the rest
