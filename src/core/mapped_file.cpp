@@ -36,11 +36,37 @@ void MappedFile::reset() {
   size_ = 0;
 }
 
+namespace {
+
+// What a path that is not a regular file is, for the message.
+const char* file_kind(mode_t mode) {
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISDIR(mode)) return "a directory";
+  return "not a file sspc can map";
+}
+
+Status not_regular(const std::filesystem::path& path, mode_t mode) {
+  return invalid_argument(path.string() + ": not a regular file (" + file_kind(mode) + ")");
+}
+
+}  // namespace
+
 StatusOr<MappedFile> MappedFile::open(const std::filesystem::path& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO for reading otherwise waits for a writer, possibly forever,
+  // before the file's kind can be checked. O_NOCTTY: a terminal device must not become the
+  // process's controlling terminal on the way to being refused.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) {
     const int err = errno;
     if (err == ENOENT) return not_found(path.string() + ": no such file");
+    struct stat st {};
+    // A socket cannot be opened at all (ENXIO); say what it is rather than what open() says.
+    if (err == ENXIO && ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+      return not_regular(path, st.st_mode);
+    }
     return io_error(path.string() + ": cannot open: " + std::strerror(err));
   }
   struct stat st {};
@@ -51,7 +77,15 @@ StatusOr<MappedFile> MappedFile::open(const std::filesystem::path& path) {
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
-    return invalid_argument(path.string() + ": not a regular file");
+    return not_regular(path, st.st_mode);
+  }
+  // Reads of a regular file never block, but the descriptor should not carry a flag that
+  // changes how it behaves for whoever reads through it later.
+  const int flags = fcntl(fd, F_GETFL);
+  if (flags < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return io_error(path.string() + ": cannot clear O_NONBLOCK: " + std::strerror(err));
   }
   MappedFile file;
   file.path_ = path;

@@ -21,7 +21,9 @@ class MappedFile {
   MappedFile& operator=(const MappedFile&) = delete;
   ~MappedFile();
 
-  // Fails with kNotFound, kIoError, or kInvalidArgument for a directory.
+  // Fails with kNotFound, kIoError, or kInvalidArgument for anything but a regular file
+  // ("x.ply: not a regular file (a FIFO)"; also a socket, a character or block device, a
+  // directory). Never blocks: a FIFO is refused without waiting for a writer.
   static StatusOr<MappedFile> open(const std::filesystem::path& path);
 
   std::span<const std::byte> bytes() const { return {data_, size_}; }
