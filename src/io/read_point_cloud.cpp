@@ -59,6 +59,9 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
     return io::read_xyz_with_progress(file.bytes(), name, options.progress);
   }();
   progress_end(options.progress);
+  // A file that shrank under the mapping was read partly as zeros: whatever the parser made of
+  // them, the reason is the truncation (core/mapped_file.hpp).
+  SSPC_RETURN_IF_ERROR(file.check_intact());
   return cloud;
 }
 
