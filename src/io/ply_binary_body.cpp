@@ -41,8 +41,7 @@ class BinaryBodyReader {
         progress_advance(progress_, reader_.offset() - before);
       }
     }
-    progress_advance(progress_, reader_.remaining());  // trailing bytes, ignored
-    return Status();
+    return check_end();
   }
 
  private:
@@ -97,6 +96,22 @@ class BinaryBodyReader {
       if (!s.ok()) return item_error(element, i, s);
     }
     return Status();
+  }
+
+  // The header's counts say where the data ends. Bytes after that mean the counts are wrong (a
+  // vertex count lower than the data would drop points without a word), except for one "\n" or
+  // "\r\n": writers that end every file with a newline are common, and such an ending cannot
+  // hold an item of any element.
+  Status check_end() {
+    const std::string_view rest = as_text(reader_.rest());
+    if (rest.empty() || rest == "\n" || rest == "\r\n") {
+      progress_advance(progress_, rest.size());
+      return Status();
+    }
+    return error_at_offset(StatusCode::kCorrupt, name_, reader_.offset(),
+                           std::to_string(rest.size()) +
+                               " bytes after the last element (the header's counts say the data "
+                               "ends here)");
   }
 
   // Smallest number of bytes an item can occupy (lists of length 0).

@@ -15,8 +15,9 @@
 
 namespace sspc::io {
 
-// Binary bodies. Errors are kCorrupt with the byte offset. Bytes after the last element are
-// ignored (some writers pad the file or end it with a newline).
+// Binary bodies. Errors are kCorrupt with the byte offset. Bytes after the last element are an
+// error, as in ascii bodies, since they mean the counts in the header are wrong; the one
+// exception is a single "\n" or "\r\n", which many writers end every file with.
 Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
                             const PlyVertexLayout& layout, std::string_view name,
                             Progress* progress, PointCloud& cloud);
