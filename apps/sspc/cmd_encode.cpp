@@ -37,7 +37,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   auto progress = make_progress(global);
   ReadOptions read;
   read.progress = progress.get();
-  auto cloud = read_point_cloud(o.input, read);
+  auto cloud = read_cloud(o.input, read);
   if (!cloud.ok()) return report_failure(cloud.status());
   const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

@@ -42,7 +42,7 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
   auto progress = make_progress(global);
   ReadOptions read_options;
   read_options.progress = progress.get();
-  auto cloud = read_point_cloud(options.input, read_options);
+  auto cloud = read_cloud(options.input, read_options);
   if (!cloud.ok()) return report_failure(cloud.status());
 
   std::error_code ec;

@@ -2,6 +2,7 @@
 // code-book ratio and bits per point.
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -20,6 +21,10 @@ void write_vec3(JsonWriter& json, const Vec3f& v) {
 
 bool is_sspc_file(const std::string& path) {
   static constexpr char kMagic[8] = {'\x8A', 'S', 'P', 'C', '\r', '\n', '\x1A', '\n'};
+  // Opening a FIFO would wait for a writer; anything but a regular file is left to the reader
+  // that follows, which refuses it with a message naming what it is.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
   std::ifstream in(path, std::ios::binary);
   char head[8] = {};
   return in.read(head, sizeof head) && std::memcmp(head, kMagic, sizeof head) == 0;

@@ -30,7 +30,7 @@ int run_normals(const NormalsOptions& options, const GlobalOptions& global) {
   const auto t0 = std::chrono::steady_clock::now();
   ReadOptions read_options;
   read_options.progress = progress.get();
-  auto cloud = read_point_cloud(options.input, read_options);
+  auto cloud = read_cloud(options.input, read_options);
   if (!cloud.ok()) return report_failure(cloud.status());
   const bool had_normals = cloud->has_normals();
   const auto t1 = std::chrono::steady_clock::now();

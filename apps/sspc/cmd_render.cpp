@@ -195,7 +195,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   } else {
     ReadOptions read;
     read.progress = progress.get();
-    auto cloud = read_point_cloud(o.input, read);
+    auto cloud = read_cloud(o.input, read);
     if (!cloud.ok()) return report_failure(cloud.status());
     NormalOptions normals;
     normals.progress = progress.get();

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -17,6 +19,16 @@ namespace sspc::cli {
 int report_failure(const Status& status) {
   std::fprintf(stderr, "sspc: error: %s\n", status.message().c_str());
   return kExitFailure;
+}
+
+StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options) {
+  std::vector<std::string> warnings;
+  options.warnings = &warnings;
+  StatusOr<PointCloud> cloud = read_point_cloud(path, options);
+  for (const std::string& warning : warnings) {
+    std::fprintf(stderr, "sspc: warning: %s\n", warning.c_str());
+  }
+  return cloud;
 }
 
 std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "sspc/io.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 #include "sspc/status.hpp"
@@ -42,6 +43,10 @@ int run_info_sspc(const std::string& path, bool as_json);
 
 // Prints "sspc: error: ..." on stderr and returns kExitFailure.
 int report_failure(const Status& status);
+
+// read_point_cloud for a command: the reader's warnings (options.warnings is set here) are
+// printed as "sspc: warning: ..." on stderr, after the progress line and before any error.
+StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options);
 
 // A progress reporter that draws on stderr only when it is a terminal and --quiet is off.
 std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);

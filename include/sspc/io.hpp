@@ -12,6 +12,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
@@ -27,6 +28,19 @@ PointCloudFormat format_from_extension(const std::filesystem::path& path);
 struct ReadOptions {
   PointCloudFormat format = PointCloudFormat::kAuto;  // kAuto: by extension, else by content
   Progress* progress = nullptr;
+  // Where to append warnings about a file that reads but loses something on the way, one line
+  // each, starting with the file name (the CLI prints them as "sspc: warning: ..."). nullptr:
+  // none are looked for. Today there is one: coordinates that float32, the precision of
+  // PointCloud::positions, cannot hold to the cloud's own detail, as when a georeferenced scan
+  // keeps its offset ("bunny.ply: coordinates reach 4000000.1 on y but the cloud spans only
+  // 0.15: float32 keeps steps of 0.25 there, ..."). The rule is in src/io/wide_positions.hpp.
+  std::vector<std::string>* warnings = nullptr;
+  // When not null, replaced by the positions as the file stores them, in double, index for
+  // index with the cloud's: exact for every stored type but 64-bit integers beyond 2^53; text
+  // is rounded once, to the nearest double. For work that needs more than float32 far from the
+  // origin (sspc eval). Its caller has the file's own values, so the float32 warning above is
+  // not given.
+  std::vector<Vec3d>* positions_f64 = nullptr;
 };
 
 // Reads a point cloud file. An empty cloud is an error (kInvalidArgument): no sspc command

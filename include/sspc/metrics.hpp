@@ -1,10 +1,11 @@
-// Distortion metrics between a reference cloud and a test cloud (SPEC step 11, paper §6), and
+// Distortion metrics between a reference cloud and a test cloud (paper §6), and
 // MPEG's D1/D2 PSNR as its metric software (pc_error) defines them. Formulas and sources are in
 // docs/METRICS.md.
 #pragma once
 
 #include <cstdint>
 #include <optional>
+#include <span>
 
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
@@ -53,6 +54,16 @@ struct EvalReport {
 // more. Results are bit-identical whatever the thread count.
 StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
                               const EvalOptions& options = {});
+
+// REF and TEST re-expressed about one common origin, the centre of REF's bounding box, worked
+// out in double from the files' own values (ReadOptions::positions_f64, index for index with
+// each cloud's positions; kInvalidArgument otherwise): every position becomes (stored - origin)
+// rounded to float. Every metric is unchanged by a translation common to both clouds, but
+// float32 is not: at a coordinate c it keeps steps of ulp(c), so clouds kept at georeferenced
+// coordinates are compared at their own detail only once moved near the origin. Returns the
+// origin.
+StatusOr<Vec3d> move_to_common_origin(PointCloud& ref, std::span<const Vec3d> ref_stored,
+                                      PointCloud& test, std::span<const Vec3d> test_stored);
 
 // The paper's PSNR (§6): 20·log10(diagonal / rms); +inf when rms is 0.
 double paper_psnr(double diagonal, double rms);

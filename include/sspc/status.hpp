@@ -41,7 +41,10 @@ class [[nodiscard]] Status {
   // "parse error: bunny.ply: line 3: ..." for printing.
   std::string to_string() const;
 
-  // Prepends context ("reading foo.ply: ") to the message of a failed status.
+  // Prepends context ("bunny.ply") to the message of a failed status, joined by exactly one
+  // ": ". The one place messages are joined: a context that already ends with the separator
+  // ("bunny.ply: ") is trimmed first, an empty context leaves the message as it is, and an
+  // empty message becomes the context alone, so no message starts with ": " or holds ": : ".
   Status with_context(const std::string& context) const;
 
  private:

@@ -1,4 +1,5 @@
-// sspc::CompressedModel: random-access decoding of an .sspc file (SPEC step 9).
+// sspc::CompressedModel: random-access decoding of an .sspc file (docs/FORMAT.md, "Decoding:
+// regions").
 //
 // Blocks come from one of two sources: a shared LRU cache for random queries (decode_patch,
 // decode_box, patch, codeword: what a renderer calls from many threads), or all blocks decoded
@@ -37,16 +38,26 @@ class BlockSource {
   virtual Status codewords(std::size_t b, std::shared_ptr<const DecodedCodewords>& out) = 0;
 };
 
+// The status of a read from the mapped file: if the file shrank under the mapping, the read saw
+// zeros where the file was cut (core/mapped_file.hpp), and that, not the checksum or the count
+// the zeros broke, is what the caller is told. A model built from bytes in memory has no
+// mapping, and an empty MappedFile is always intact.
+Status after_read(const MappedFile& mapped, Status read) {
+  SSPC_RETURN_IF_ERROR(mapped.check_intact());
+  return read;
+}
+
 class CachedSource final : public BlockSource {
  public:
-  CachedSource(const codec::ContainerReader& reader, codec::BlockCache<DecodedPatches>& patches,
+  CachedSource(const codec::ContainerReader& reader, const MappedFile& mapped,
+               codec::BlockCache<DecodedPatches>& patches,
                codec::BlockCache<DecodedCodewords>& codewords)
-      : reader_(reader), patch_cache_(patches), codeword_cache_(codewords) {}
+      : reader_(reader), mapped_(mapped), patch_cache_(patches), codeword_cache_(codewords) {}
   Status patches(std::size_t b, std::shared_ptr<const DecodedPatches>& out) override {
     out = patch_cache_.find(b);
     if (out) return Status();
     auto block = std::make_shared<DecodedPatches>();
-    SSPC_RETURN_IF_ERROR(reader_.read_patches(b, *block));
+    SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_patches(b, *block)));
     patch_cache_.insert(b, block);
     out = std::move(block);
     return Status();
@@ -55,7 +66,7 @@ class CachedSource final : public BlockSource {
     out = codeword_cache_.find(b);
     if (out) return Status();
     auto block = std::make_shared<DecodedCodewords>();
-    SSPC_RETURN_IF_ERROR(reader_.read_codewords(b, *block));
+    SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_codewords(b, *block)));
     codeword_cache_.insert(b, block);
     out = std::move(block);
     return Status();
@@ -63,6 +74,7 @@ class CachedSource final : public BlockSource {
 
  private:
   const codec::ContainerReader& reader_;
+  const MappedFile& mapped_;
   codec::BlockCache<DecodedPatches>& patch_cache_;
   codec::BlockCache<DecodedCodewords>& codeword_cache_;
 };
@@ -91,7 +103,7 @@ struct CompressedModel::Impl {
     return Status();
   }
 
-  CachedSource cached() const { return CachedSource(reader, patch_cache, codeword_cache); }
+  CachedSource cached() const { return CachedSource(reader, mapped, patch_cache, codeword_cache); }
   std::uint32_t patches_per_block() const { return reader.header().patches_per_block; }
   std::uint32_t codewords_per_block() const { return reader.header().codewords_per_block; }
 
@@ -179,7 +191,7 @@ CompressedModel::~CompressedModel() = default;
 StatusOr<CompressedModel> CompressedModel::open(const std::filesystem::path& path) {
   auto impl = std::make_unique<Impl>();
   SSPC_ASSIGN_OR_RETURN(impl->mapped, MappedFile::open(path));
-  SSPC_RETURN_IF_ERROR(impl->init(impl->mapped.bytes(), path.string()));
+  SSPC_RETURN_IF_ERROR(after_read(impl->mapped, impl->init(impl->mapped.bytes(), path.string())));
   return CompressedModel(std::move(impl));
 }
 
@@ -302,6 +314,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
       src.codeword_blocks[i - p_blocks] = std::move(block);
     }
   });
+  SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
   for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
 
   progress_begin(options.progress, "decoding", patch_count(), "patches");
@@ -350,11 +363,12 @@ Status CompressedModel::verify() const {
     }
   });
   // Blocks first: their errors say which block and where; the section CRCs then catch what
-  // no block covers.
+  // no block covers. A truncation explains either.
+  SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
   for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
-  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kCodebookBlocks));
-  SSPC_RETURN_IF_ERROR(reader.check_section_crc(codec::SectionKind::kPatchBlocks));
-  return Status();
+  SSPC_RETURN_IF_ERROR(
+      after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kCodebookBlocks)));
+  return after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kPatchBlocks));
 }
 
 ModelInfo CompressedModel::info() const {

@@ -1,5 +1,7 @@
 #include "sspc/status.hpp"
 
+#include <string_view>
+
 namespace sspc {
 
 const char* status_code_name(StatusCode code) {
@@ -25,7 +27,11 @@ std::string Status::to_string() const {
 
 Status Status::with_context(const std::string& context) const {
   if (ok()) return *this;
-  return Status(code_, context + ": " + message_);
+  std::string_view prefix = context;
+  while (!prefix.empty() && (prefix.back() == ' ' || prefix.back() == ':')) prefix.remove_suffix(1);
+  if (prefix.empty()) return *this;
+  if (message_.empty()) return Status(code_, std::string(prefix));
+  return Status(code_, std::string(prefix) + ": " + message_);
 }
 
 }  // namespace sspc

@@ -40,7 +40,7 @@ Status check_cloud(const PointCloud& cloud, const char* name) {
                               std::to_string(cloud.size()) +
                               " points; sspc eval handles at most 2^32 - 1");
   }
-  return cloud.validate().with_context(std::string(name) + " point cloud: ");
+  return cloud.validate().with_context(std::string(name) + " point cloud");
 }
 
 StatusOr<double> choose_peak(const EvalOptions& options, double ref_diagonal) {

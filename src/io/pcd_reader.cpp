@@ -20,6 +20,7 @@
 #include "io/reader_common.hpp"
 #include "io/strided_fields.hpp"
 #include "io/text_scanner.hpp"
+#include "io/wide_positions.hpp"
 
 namespace sspc {
 
@@ -33,6 +34,7 @@ struct PcdLayout {
   std::optional<std::size_t> normal[3];
   std::optional<std::size_t> color;
   bool normals = false;
+  bool positions_wider_than_float = false;  // x, y or z is not F 4
 };
 
 StatusOr<PcdLayout> make_pcd_layout(const PcdHeader& header, std::string_view name) {
@@ -55,6 +57,7 @@ StatusOr<PcdLayout> make_pcd_layout(const PcdHeader& header, std::string_view na
     }
     SSPC_RETURN_IF_ERROR(single(*p));
     layout.position[k] = *p;
+    if (header.fields[*p].type != ScalarType::kFloat32) layout.positions_wider_than_float = true;
     layout.normal[k] = header.find(kNormals[k]);
   }
   layout.normals = layout.normal[0] && layout.normal[1] && layout.normal[2];
@@ -76,12 +79,13 @@ StatusOr<PcdLayout> make_pcd_layout(const PcdHeader& header, std::string_view na
 
 class PcdReader {
  public:
-  PcdReader(std::span<const std::byte> data, std::string_view name, Progress* progress)
-      : data_(data), name_(name), progress_(progress) {}
+  PcdReader(std::span<const std::byte> data, std::string_view name, const ReadOptions& options)
+      : data_(data), name_(name), options_(options), progress_(options.progress) {}
 
   StatusOr<PointCloud> read() {
     SSPC_ASSIGN_OR_RETURN(header_, parse_pcd_header(as_text(data_), name_));
     SSPC_ASSIGN_OR_RETURN(layout_, make_pcd_layout(header_, name_));
+    wide_.emplace(options_, layout_.positions_wider_than_float);
     progress_advance(progress_, header_.body_offset);
     PointCloud cloud;
     switch (header_.data) {
@@ -93,6 +97,7 @@ class PcdReader {
     // the bytes read and the bytes decoded differ.
     progress_advance(progress_, body().size());
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name_));
+    wide_->finish(cloud, name_);
     return cloud;
   }
 
@@ -137,6 +142,7 @@ class PcdReader {
       Tokenizer tokens(line);
       std::string_view tok;
       float v[6] = {};
+      Vec3d stored = Vec3d::Zero();  // the position at the file's precision
       Rgb8 color;
       for (std::size_t f = 0; f < header_.fields.size(); ++f) {
         const PcdField& field = header_.fields[f];
@@ -146,8 +152,10 @@ class PcdReader {
                          " values the header declares");
           }
           if (role[f] < 0) continue;
+          double wide = 0;
           const bool ok = role[f] == 6 ? parse_packed_color(tok, field.type, color)
-                                       : parse_coordinate(tok, field.type, v[role[f]]);
+                                       : parse_coordinate(tok, field.type, v[role[f]], wide);
+          if (role[f] < 3) stored[role[f]] = wide;
           if (!ok) {
             return error("field " + quote_token(field.name) + ": " + quote_token(tok) +
                          " is not a valid " + (role[f] == 6 ? "colour" : "number"));
@@ -165,6 +173,7 @@ class PcdReader {
           (layout_.normals && !cloud.normals.back().allFinite())) {
         return non_finite_error(name_, cloud, i, "line " + std::to_string(lines.line_number()));
       }
+      if (wide_->wanted()) wide_->add(stored, cloud.positions.back());
     }
     if (next_data_line(lines, line)) {
       return error_at_line(StatusCode::kParseError, name_, lines.line_number(),
@@ -180,11 +189,15 @@ class PcdReader {
     return false;
   }
 
-  static bool parse_coordinate(std::string_view tok, ScalarType type, float& out) {
-    if (type == ScalarType::kFloat32) return parse_number(tok, out);  // exact, no double rounding
-    double d = 0;
-    if (!parse_number(tok, d)) return false;
-    out = narrow_to_float(d);
+  // The value as the cloud holds it (`out`) and as the file stores it (`wide`).
+  static bool parse_coordinate(std::string_view tok, ScalarType type, float& out, double& wide) {
+    if (type == ScalarType::kFloat32) {  // exact, no double rounding
+      if (!parse_number(tok, out)) return false;
+      wide = static_cast<double>(out);
+      return true;
+    }
+    if (!parse_number(tok, wide)) return false;
+    out = narrow_to_float(wide);
     return true;
   }
 
@@ -231,6 +244,7 @@ class PcdReader {
                           cloud.colors.data());
       }
     });
+    if (wide_->wanted()) wide_->add_block(block, pos, Endian::kLittle, cloud.positions);
     return Status();
   }
 
@@ -315,22 +329,24 @@ class PcdReader {
 
   std::span<const std::byte> data_;
   std::string_view name_;
+  const ReadOptions& options_;
   Progress* progress_;
   PcdHeader header_;
   PcdLayout layout_;
+  std::optional<WidePositions> wide_;  // once the header says how positions are stored
 };
 
 }  // namespace
 
-StatusOr<PointCloud> read_pcd_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress) {
-  return PcdReader(data, name, progress).read();
+StatusOr<PointCloud> read_pcd_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options) {
+  return PcdReader(data, name, options).read();
 }
 
 }  // namespace io
 
 StatusOr<PointCloud> read_pcd(std::span<const std::byte> data, std::string_view name) {
-  return io::read_pcd_with_progress(data, name, nullptr);
+  return io::read_pcd_with_options(data, name, {});
 }
 
 }  // namespace sspc

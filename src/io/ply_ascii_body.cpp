@@ -14,11 +14,12 @@ namespace {
 class AsciiBodyReader {
  public:
   AsciiBodyReader(std::span<const std::byte> file, const PlyHeader& header,
-                  const PlyVertexLayout& layout, std::string_view name, Progress* progress)
+                  const PlyVertexLayout& layout, std::string_view name, const PlyBodySinks& sinks)
       : header_(header),
         layout_(layout),
         name_(name),
-        progress_(progress),
+        progress_(sinks.progress),
+        wide_(*sinks.wide),
         text_(as_text(file)),
         lines_(text_.substr(std::min(header.body_offset, text_.size())), header.body_first_line) {}
 
@@ -148,6 +149,7 @@ class AsciiBodyReader {
     if (!cloud.positions[idx].allFinite() || (layout_.normals && !cloud.normals[idx].allFinite())) {
       return non_finite_error(name_, cloud, idx, "line " + std::to_string(lines_.line_number()));
     }
+    if (wide_.wanted()) wide_.add(Vec3d(v_[kX], v_[kY], v_[kZ]), cloud.positions[idx]);
     return Status();
   }
 
@@ -155,6 +157,7 @@ class AsciiBodyReader {
   const PlyVertexLayout& layout_;
   std::string_view name_;
   Progress* progress_;
+  WidePositions& wide_;
   std::string_view text_;
   LineScanner lines_;
   double v_[kSlotCount] = {};
@@ -164,9 +167,9 @@ class AsciiBodyReader {
 }  // namespace
 
 Status read_ply_ascii_body(std::span<const std::byte> file, const PlyHeader& header,
-                           const PlyVertexLayout& layout, std::string_view name, Progress* progress,
-                           PointCloud& cloud) {
-  return AsciiBodyReader(file, header, layout, name, progress).read(cloud);
+                           const PlyVertexLayout& layout, std::string_view name,
+                           const PlyBodySinks& sinks, PointCloud& cloud) {
+  return AsciiBodyReader(file, header, layout, name, sinks).read(cloud);
 }
 
 }  // namespace sspc::io

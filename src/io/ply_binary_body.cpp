@@ -22,11 +22,12 @@ namespace {
 class BinaryBodyReader {
  public:
   BinaryBodyReader(std::span<const std::byte> file, const PlyHeader& header,
-                   const PlyVertexLayout& layout, std::string_view name, Progress* progress)
+                   const PlyVertexLayout& layout, std::string_view name, const PlyBodySinks& sinks)
       : header_(header),
         layout_(layout),
         name_(name),
-        progress_(progress),
+        progress_(sinks.progress),
+        wide_(*sinks.wide),
         endian_(header.format == PlyFormat::kBinaryBigEndian ? Endian::kBig : Endian::kLittle),
         reader_(file.subspan(std::min(header.body_offset, file.size())), header.body_offset) {}
 
@@ -41,8 +42,7 @@ class BinaryBodyReader {
         progress_advance(progress_, reader_.offset() - before);
       }
     }
-    progress_advance(progress_, reader_.remaining());  // trailing bytes, ignored
-    return Status();
+    return check_end();
   }
 
  private:
@@ -97,6 +97,22 @@ class BinaryBodyReader {
       if (!s.ok()) return item_error(element, i, s);
     }
     return Status();
+  }
+
+  // The header's counts say where the data ends. Bytes after that mean the counts are wrong (a
+  // vertex count lower than the data would drop points without a word), except for one "\n" or
+  // "\r\n": writers that end every file with a newline are common, and such an ending cannot
+  // hold an item of any element.
+  Status check_end() {
+    const std::string_view rest = as_text(reader_.rest());
+    if (rest.empty() || rest == "\n" || rest == "\r\n") {
+      progress_advance(progress_, rest.size());
+      return Status();
+    }
+    return error_at_offset(StatusCode::kCorrupt, name_, reader_.offset(),
+                           std::to_string(rest.size()) +
+                               " bytes after the last element (the header's counts say the data "
+                               "ends here)");
   }
 
   // Smallest number of bytes an item can occupy (lists of length 0).
@@ -170,6 +186,7 @@ class BinaryBodyReader {
       return non_finite_error(name_, cloud, *bad,
                               "byte offset " + std::to_string(block_offset + *bad * stride));
     }
+    if (wide_.wanted()) wide_.add_block(block, pos, endian_, cloud.positions);
     return Status();
   }
 
@@ -215,6 +232,7 @@ class BinaryBodyReader {
           (layout_.normals && !cloud.normals[idx].allFinite())) {
         return non_finite_error(name_, cloud, idx, "byte offset " + std::to_string(item_offset));
       }
+      if (wide_.wanted()) wide_.add(Vec3d(v[kX], v[kY], v[kZ]), cloud.positions[idx]);
     }
     progress_advance(progress_, reader_.offset() - start);
     return Status();
@@ -224,6 +242,7 @@ class BinaryBodyReader {
   const PlyVertexLayout& layout_;
   std::string_view name_;
   Progress* progress_;
+  WidePositions& wide_;
   Endian endian_;
   ByteReader reader_;
 };
@@ -232,8 +251,8 @@ class BinaryBodyReader {
 
 Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
                             const PlyVertexLayout& layout, std::string_view name,
-                            Progress* progress, PointCloud& cloud) {
-  return BinaryBodyReader(file, header, layout, name, progress).read(cloud);
+                            const PlyBodySinks& sinks, PointCloud& cloud) {
+  return BinaryBodyReader(file, header, layout, name, sinks).read(cloud);
 }
 
 }  // namespace sspc::io

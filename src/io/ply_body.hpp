@@ -9,23 +9,32 @@
 
 #include "io/ply_header.hpp"
 #include "io/ply_vertex_layout.hpp"
+#include "io/wide_positions.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 #include "sspc/status.hpp"
 
 namespace sspc::io {
 
-// Binary bodies. Errors are kCorrupt with the byte offset. Bytes after the last element are
-// ignored (some writers pad the file or end it with a newline).
+// Where a body reader reports besides the cloud: progress in bytes, and each position as stored
+// when `wide->wanted()`.
+struct PlyBodySinks {
+  Progress* progress = nullptr;
+  WidePositions* wide = nullptr;
+};
+
+// Binary bodies. Errors are kCorrupt with the byte offset. Bytes after the last element are an
+// error, as in ascii bodies, since they mean the counts in the header are wrong; the one
+// exception is a single "\n" or "\r\n", which many writers end every file with.
 Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
                             const PlyVertexLayout& layout, std::string_view name,
-                            Progress* progress, PointCloud& cloud);
+                            const PlyBodySinks& sinks, PointCloud& cloud);
 
 // Ascii bodies: one element item per line, blank lines ignored. Errors are kParseError with the
 // line number; anything but whitespace after the last element is an error, since it means the
 // counts in the header are wrong.
 Status read_ply_ascii_body(std::span<const std::byte> file, const PlyHeader& header,
-                           const PlyVertexLayout& layout, std::string_view name, Progress* progress,
-                           PointCloud& cloud);
+                           const PlyVertexLayout& layout, std::string_view name,
+                           const PlyBodySinks& sinks, PointCloud& cloud);
 
 }  // namespace sspc::io

@@ -4,29 +4,45 @@
 #include "io/ply_header.hpp"
 #include "io/ply_vertex_layout.hpp"
 #include "io/reader_common.hpp"
+#include "io/wide_positions.hpp"
 
 namespace sspc {
 
 namespace io {
 
-StatusOr<PointCloud> read_ply_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress) {
+namespace {
+
+bool positions_wider_than_float(const PlyHeader& header, const PlyVertexLayout& layout) {
+  const PlyElement& vertex = header.elements[layout.element];
+  for (const PlySlot s : {kX, kY, kZ}) {
+    if (vertex.properties[*layout.property[s]].type != ScalarType::kFloat32) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options) {
   SSPC_ASSIGN_OR_RETURN(const PlyHeader header, parse_ply_header(as_text(data), name));
   SSPC_ASSIGN_OR_RETURN(const PlyVertexLayout layout, make_ply_vertex_layout(header, name));
+  WidePositions wide(options, positions_wider_than_float(header, layout));
   PointCloud cloud;
+  const PlyBodySinks sinks{options.progress, &wide};
   if (header.format == PlyFormat::kAscii) {
-    SSPC_RETURN_IF_ERROR(read_ply_ascii_body(data, header, layout, name, progress, cloud));
+    SSPC_RETURN_IF_ERROR(read_ply_ascii_body(data, header, layout, name, sinks, cloud));
   } else {
-    SSPC_RETURN_IF_ERROR(read_ply_binary_body(data, header, layout, name, progress, cloud));
+    SSPC_RETURN_IF_ERROR(read_ply_binary_body(data, header, layout, name, sinks, cloud));
   }
   SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
+  wide.finish(cloud, name);
   return cloud;
 }
 
 }  // namespace io
 
 StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name) {
-  return io::read_ply_with_progress(data, name, nullptr);
+  return io::read_ply_with_options(data, name, {});
 }
 
 }  // namespace sspc

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <string>
+#include <utility>
 
 #include "core/mapped_file.hpp"
 #include "io/reader_common.hpp"
@@ -49,16 +50,18 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
   progress_begin(options.progress, "reading " + path.filename().string(), file.size(), "bytes");
   StatusOr<PointCloud> cloud = [&] {
     switch (format) {
-      case PointCloudFormat::kPly:
-        return io::read_ply_with_progress(file.bytes(), name, options.progress);
-      case PointCloudFormat::kPcd:
-        return io::read_pcd_with_progress(file.bytes(), name, options.progress);
+      case PointCloudFormat::kPly: return io::read_ply_with_options(file.bytes(), name, options);
+      case PointCloudFormat::kPcd: return io::read_pcd_with_options(file.bytes(), name, options);
       case PointCloudFormat::kXyz:
       case PointCloudFormat::kAuto: break;
     }
-    return io::read_xyz_with_progress(file.bytes(), name, options.progress);
+    return io::read_xyz_with_options(file.bytes(), name, options);
   }();
   progress_end(options.progress);
+  // A file that shrank under the mapping was read partly as zeros: whatever the parser made of
+  // them, the reason is the truncation (core/mapped_file.hpp).
+  if (Status intact = file.check_intact(); !intact.ok()) cloud = std::move(intact);
+  if (!cloud.ok() && options.positions_f64 != nullptr) options.positions_f64->clear();
   return cloud;
 }
 

@@ -9,20 +9,20 @@
 
 namespace sspc::io {
 
+// Every message goes through Status::with_context, so a reader given no name (bytes from
+// memory) says "line 12: what", not ": line 12: what".
 Status error_at_line(StatusCode code, std::string_view name, std::size_t line,
                      std::string_view what) {
-  return Status(code,
-                std::string(name) + ": line " + std::to_string(line) + ": " + std::string(what));
+  return error_in(code, name, "line " + std::to_string(line) + ": " + std::string(what));
 }
 
 Status error_at_offset(StatusCode code, std::string_view name, std::size_t offset,
                        std::string_view what) {
-  return Status(code, std::string(name) + ": byte offset " + std::to_string(offset) + ": " +
-                          std::string(what));
+  return error_in(code, name, "byte offset " + std::to_string(offset) + ": " + std::string(what));
 }
 
 Status error_in(StatusCode code, std::string_view name, std::string_view what) {
-  return Status(code, std::string(name) + ": " + std::string(what));
+  return Status(code, std::string(what)).with_context(std::string(name));
 }
 
 Status in_file(const Status& status, std::string_view name) {
@@ -64,13 +64,11 @@ std::string format_vec(const Vec3f& v) {
 
 Status non_finite_error(std::string_view name, const PointCloud& cloud, std::size_t index,
                         std::string_view where) {
-  std::string msg = std::string(name) + ": ";
-  if (!where.empty()) msg += std::string(where) + ": ";
   const bool position_bad = !cloud.positions[index].allFinite();
-  msg += "point " + std::to_string(index) + " has a non-finite " +
-         (position_bad ? "coordinate " + format_vec(cloud.positions[index])
-                       : "normal " + format_vec(cloud.normals[index]));
-  return invalid_argument(std::move(msg));
+  const std::string what = "point " + std::to_string(index) + " has a non-finite " +
+                           (position_bad ? "coordinate " + format_vec(cloud.positions[index])
+                                         : "normal " + format_vec(cloud.normals[index]));
+  return invalid_argument(what).with_context(std::string(where)).with_context(std::string(name));
 }
 
 Status finish_cloud(const PointCloud& cloud, std::string_view name) {
@@ -78,8 +76,8 @@ Status finish_cloud(const PointCloud& cloud, std::string_view name) {
     return error_in(StatusCode::kInvalidArgument, name, "the file holds no points");
   if ((cloud.has_normals() && cloud.normals.size() != cloud.size()) ||
       (cloud.has_colors() && cloud.colors.size() != cloud.size())) {
-    return internal_error(std::string(name) +
-                          ": reader produced attribute arrays of the wrong length");
+    return error_in(StatusCode::kInternal, name,
+                    "reader produced attribute arrays of the wrong length");
   }
   return Status();
 }

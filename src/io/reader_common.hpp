@@ -1,6 +1,7 @@
 // What the point cloud readers share: how errors name the file and the place in it, the final
-// checks every cloud passes before a reader returns it, and the reader entry points with a
-// progress hook (the public ones in sspc/io.hpp pass none).
+// checks every cloud passes before a reader returns it, and the reader entry points that take
+// ReadOptions (progress, warnings, positions in double; the public ones in sspc/io.hpp pass the
+// defaults).
 #pragma once
 
 #include <cstddef>
@@ -41,13 +42,14 @@ Status non_finite_error(std::string_view name, const PointCloud& cloud, std::siz
 // each point came from.
 Status finish_cloud(const PointCloud& cloud, std::string_view name);
 
-// Reader entry points that report progress in bytes consumed (stage opened by the caller).
-StatusOr<PointCloud> read_ply_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress);
-StatusOr<PointCloud> read_xyz_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress);
-StatusOr<PointCloud> read_pcd_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress);
+// Reader entry points: progress in bytes consumed (stage opened by the caller), warnings and
+// the positions in double as ReadOptions describes them. `options.format` is not looked at.
+StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options);
+StatusOr<PointCloud> read_xyz_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options);
+StatusOr<PointCloud> read_pcd_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options);
 
 // Views bytes as text without copying.
 inline std::string_view as_text(std::span<const std::byte> data) {

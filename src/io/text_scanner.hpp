@@ -5,10 +5,12 @@
 // rounds correctly, so a float written with std::to_chars's shortest form reads back exactly.
 #pragma once
 
+#include <bit>
 #include <charconv>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -116,6 +118,32 @@ inline bool parse_number(std::string_view token, T& out) {
   const char* end = token.data() + token.size();
   const auto [ptr, ec] = std::from_chars(token.data(), end, out);
   return ec == std::errc() && ptr == end;
+}
+
+// A number as the nearest float, exactly as parse_number<float> gives it, and the nearest
+// double, from one parse in the common case. Rounding the nearest double to float gives the
+// nearest float except when that double lies exactly halfway between two floats (the decimal
+// itself may not, and then rounding twice can pick the wrong neighbour). That case, non-zero
+// values outside float's normal range and failures are parsed again as float, so that the float,
+// and whether the token is accepted, are always those of parse_number<float>.
+inline bool parse_float_and_double(std::string_view token, float& f, double& d) {
+  const bool have_double = parse_number(token, d);
+  if (have_double) {
+    const double magnitude = d < 0 ? -d : d;
+    // A float's 24-bit significand leaves the low 29 of a double's 52 fraction bits; halfway
+    // between two floats, they are 1 followed by 28 zeros.
+    constexpr std::uint64_t kDropped = (std::uint64_t{1} << 29) - 1;
+    constexpr std::uint64_t kHalfway = std::uint64_t{1} << 28;
+    const bool normal = magnitude >= static_cast<double>(std::numeric_limits<float>::min()) &&
+                        magnitude <= static_cast<double>(std::numeric_limits<float>::max());
+    if (d == 0 || (normal && (std::bit_cast<std::uint64_t>(d) & kDropped) != kHalfway)) {
+      f = static_cast<float>(d);
+      return true;
+    }
+  }
+  if (!parse_number(token, f)) return false;
+  if (!have_double) d = static_cast<double>(f);
+  return true;
 }
 
 // True when the token is a plain non-negative decimal integer: digits only.

@@ -19,6 +19,7 @@
 
 #include "io/reader_common.hpp"
 #include "io/text_scanner.hpp"
+#include "io/wide_positions.hpp"
 
 namespace sspc {
 
@@ -60,10 +61,11 @@ std::string_view without_bom(std::string_view text) {
 
 class XyzReader {
  public:
-  XyzReader(std::span<const std::byte> data, std::string_view name, Progress* progress)
+  XyzReader(std::span<const std::byte> data, std::string_view name, const ReadOptions& options)
       : text_(without_bom(as_text(data))),
         name_(name),
-        progress_(progress),
+        progress_(options.progress),
+        wide_(options, /*stored_wider=*/true),  // decimal text holds any precision
         lines_(text_),
         bom_(data.size() - text_.size()) {}
 
@@ -110,6 +112,7 @@ class XyzReader {
     if (columns_ == XyzColumns::kXyzNormalsOrRgb) six_columns_to_colors();
     progress_advance(progress_, bom_ + text_.size() - reported_);
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud_, name_));
+    wide_.finish(cloud_, name_);
     return std::move(cloud_);
   }
 
@@ -143,12 +146,16 @@ class XyzReader {
     cloud_.reserve(bound, normals, colors);
   }
 
+  Status not_a_number(std::size_t column, std::string_view what, std::string_view tok) const {
+    return error("column " + std::to_string(column + 1) + " (" + std::string(what) +
+                 "): " + quote_token(tok) + " is not a number");
+  }
+
   Status parse_floats(const std::array<std::string_view, 10>& tok, std::size_t first, Vec3f& out,
                       std::string_view what) const {
     for (std::size_t k = 0; k < 3; ++k) {
       if (!parse_number(tok[first + k], out[static_cast<Eigen::Index>(k)])) {
-        return error("column " + std::to_string(first + k + 1) + " (" + std::string(what) +
-                     "): " + quote_token(tok[first + k]) + " is not a number");
+        return not_a_number(first + k, what, tok[first + k]);
       }
     }
     return Status();
@@ -166,10 +173,29 @@ class XyzReader {
     return Status();
   }
 
-  Status parse_point(const std::array<std::string_view, 10>& tok) {
+  // The position, also in double when the file's own values are wanted.
+  Status parse_position(const std::array<std::string_view, 10>& tok) {
+    if (!wide_.wanted()) {
+      Vec3f p;
+      SSPC_RETURN_IF_ERROR(parse_floats(tok, 0, p, "position"));
+      cloud_.positions.push_back(p);
+      return Status();
+    }
     Vec3f p;
-    SSPC_RETURN_IF_ERROR(parse_floats(tok, 0, p, "position"));
+    Vec3d stored;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto i = static_cast<Eigen::Index>(k);
+      if (!parse_float_and_double(tok[k], p[i], stored[i])) {
+        return not_a_number(k, "position", tok[k]);
+      }
+    }
     cloud_.positions.push_back(p);
+    if (p.allFinite()) wide_.add(stored, p);  // a non-finite one is refused below
+    return Status();
+  }
+
+  Status parse_point(const std::array<std::string_view, 10>& tok) {
+    SSPC_RETURN_IF_ERROR(parse_position(tok));
     switch (*columns_) {
       case XyzColumns::kXyz:
       case XyzColumns::kXyzI: break;  // the intensity is not part of the model
@@ -232,6 +258,7 @@ class XyzReader {
   std::string_view text_;
   std::string_view name_;
   Progress* progress_;
+  WidePositions wide_;
   LineScanner lines_;
   PointCloud cloud_;
   std::optional<XyzColumns> columns_;
@@ -245,15 +272,15 @@ class XyzReader {
 
 }  // namespace
 
-StatusOr<PointCloud> read_xyz_with_progress(std::span<const std::byte> data, std::string_view name,
-                                            Progress* progress) {
-  return XyzReader(data, name, progress).read();
+StatusOr<PointCloud> read_xyz_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options) {
+  return XyzReader(data, name, options).read();
 }
 
 }  // namespace io
 
 StatusOr<PointCloud> read_xyz(std::span<const std::byte> data, std::string_view name) {
-  return io::read_xyz_with_progress(data, name, nullptr);
+  return io::read_xyz_with_options(data, name, {});
 }
 
 }  // namespace sspc

@@ -9,6 +9,8 @@
 #include <limits>
 #include <string>
 
+#include <unistd.h>
+
 #include "codec/checksum.hpp"
 #include "codec/container_format.hpp"
 #include "codec/container_writer.hpp"
@@ -158,6 +160,38 @@ TEST(ContainerTest, WriteIsAtomicAndReadable) {
   ASSERT_TRUE(model.ok()) << model.status().to_string();
   EXPECT_TRUE(model->verify().ok());
   EXPECT_EQ(model->info().file_bytes, stats->file_bytes);
+}
+
+// A model keeps its file mapped for random access; when the file shrinks under it, every decode
+// that touches the lost part says so, instead of the process dying of SIGBUS or the decoder
+// blaming a checksum.
+TEST(ContainerTest, AFileThatShrinksWhileOpenGivesAClearError) {
+  test::TempDir dir;
+  test::ModelShape shape = small_shape();
+  shape.side = 96;
+  const EncodedModel m = test::make_plane_model(shape);
+  const auto path = dir.path() / "shrinking.sspc";
+  auto stats = write_container(m, small_blocks(), path);
+  ASSERT_TRUE(stats.ok()) << stats.status().to_string();
+  const std::uint64_t size = stats->file_bytes;
+  ASSERT_GT(size, 4u * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE)));  // faults, not zeros
+  auto model = CompressedModel::open(path);
+  ASSERT_TRUE(model.ok()) << model.status().to_string();
+  ASSERT_EQ(truncate(path.c_str(), static_cast<off_t>(kHeaderSize)), 0);
+
+  const std::string expected = path.string() + ": the file shrank while it was read (was " +
+                               std::to_string(size) + " bytes)";
+  const StatusOr<PointCloud> all = model->decode_all();
+  ASSERT_FALSE(all.ok());
+  EXPECT_EQ(all.status().code(), StatusCode::kIoError);
+  EXPECT_EQ(all.status().message(), expected);
+  const StatusOr<PointCloud> last = model->decode_patch(model->patch_count() - 1);
+  ASSERT_FALSE(last.ok());
+  EXPECT_EQ(last.status().message(), expected);
+  const StatusOr<CodeWordData> word = model->codeword(model->codeword_count() - 1);
+  ASSERT_FALSE(word.ok());
+  EXPECT_EQ(word.status().message(), expected);
+  EXPECT_EQ(model->verify().message(), expected);
 }
 
 TEST(ContainerTest, InvalidModelsAreRefused) {

@@ -33,6 +33,20 @@ TEST(Status, CarriesCodeAndContext) {
   EXPECT_EQ(s.to_string(), "parse error: bunny.ply: line 3: bad token");
 }
 
+// A caller that ends its context with the separator, or has none to give, must not produce
+// "bunny.ply: : ..." or ": ...".
+TEST(Status, ContextJoinsWithExactlyOneSeparator) {
+  EXPECT_EQ(parse_error("line 3: bad").with_context("bunny.ply: ").message(),
+            "bunny.ply: line 3: bad");
+  EXPECT_EQ(parse_error("line 3: bad").with_context("bunny.ply:").message(),
+            "bunny.ply: line 3: bad");
+  EXPECT_EQ(parse_error("line 3: bad").with_context("").message(), "line 3: bad");
+  EXPECT_EQ(parse_error("line 3: bad").with_context(": ").message(), "line 3: bad");
+  EXPECT_EQ(parse_error("").with_context("bunny.ply").message(), "bunny.ply");
+  EXPECT_EQ(parse_error("bad").with_context("a").with_context("b: ").message(), "b: a: bad");
+  EXPECT_TRUE(Status().with_context("bunny.ply").message().empty());
+}
+
 TEST(StatusOr, AssignOrReturnPropagates) {
   int out = 0;
   EXPECT_TRUE(doubles(4, &out).ok());

@@ -278,5 +278,25 @@ TEST(MalformedPcd, EveryTruncationOfACompressedFileIsRefused) {
   }
 }
 
+// Readers given no name (bytes from memory) must not start their messages with ": ", and the
+// place and the problem are joined by exactly one separator.
+TEST(ErrorMessages, AnEmptyNameLeavesNoDanglingSeparator) {
+  EXPECT_EQ(read_xyz(bytes_of("1 2 3\n1 2\n"), "").status().message(),
+            "line 2: 2 columns where the first data line (line 1) has 3");
+  EXPECT_EQ(read_xyz(bytes_of("nan 2 3\n"), "").status().message(),
+            "line 1: point 0 has a non-finite coordinate (nan, 2, 3)");
+  EXPECT_EQ(read_xyz(bytes_of("# nothing\n"), "").status().message(), "the file holds no points");
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
+  put(ply, 1.0f);
+  EXPECT_EQ(read_ply(bytes_of(ply), "").status().message(),
+            "byte offset 115: element 'vertex' declares 2 items of at least 12 bytes, but only 4 "
+            "bytes remain (the file is truncated or the count is wrong)");
+  EXPECT_EQ(read_ply(bytes_of(ply), "cut.ply").status().message(),
+            "cut.ply: byte offset 115: element 'vertex' declares 2 items of at least 12 bytes, "
+            "but only 4 bytes remain (the file is truncated or the count is wrong)");
+}
+
 }  // namespace
 }  // namespace sspc

@@ -243,13 +243,40 @@ TEST(PlyReader, PartialNormalsAreIgnored) {
   EXPECT_FALSE(cloud->has_normals());
 }
 
-TEST(PlyReader, TrailingBytesAfterABinaryBodyAreTolerated) {
-  std::string ply =
+// A newline after the binary body is common (writers that end every file with one) and harmless.
+TEST(PlyReader, OneNewlineAfterABinaryBodyIsTolerated) {
+  for (const std::string ending : {"\n", "\r\n"}) {
+    std::string ply =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n";
+    for (float v : {1.0f, 2.0f, 3.0f}) put(ply, v);
+    ply += ending;
+    EXPECT_TRUE(read_ply(bytes_of(ply), "trailing.ply").ok());
+  }
+}
+
+// Anything more means the header's counts are wrong: a vertex count lower than the data would
+// otherwise drop points without a word (the ascii reader refuses the same lie).
+TEST(PlyReader, BytesAfterTheLastElementOfABinaryBodyAreRefused) {
+  const std::string header =
       "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
       "property float y\nproperty float z\nend_header\n";
-  for (float v : {1.0f, 2.0f, 3.0f}) put(ply, v);
-  ply += "\n";
-  EXPECT_TRUE(read_ply(bytes_of(ply), "trailing.ply").ok());
+  std::string ply = header;
+  for (float v : {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f}) put(ply, v);
+  const StatusOr<PointCloud> lie = read_ply(bytes_of(ply), "lie.ply");
+  ASSERT_FALSE(lie.ok());
+  EXPECT_EQ(lie.status().code(), StatusCode::kCorrupt);
+  EXPECT_EQ(lie.status().message(),
+            "lie.ply: byte offset " + std::to_string(header.size() + 12) +
+                ": 12 bytes after the last element (the header's counts say the data ends here)");
+
+  for (const std::string& ending :
+       {std::string("\n\n"), std::string("\r"), std::string(1, '\0'), std::string(" \n")}) {
+    std::string padded = header;
+    for (float v : {1.0f, 2.0f, 3.0f}) put(padded, v);
+    padded += ending;
+    EXPECT_FALSE(read_ply(bytes_of(padded), "padded.ply").ok()) << ending.size();
+  }
 }
 
 }  // namespace

@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include "io_test_util.hpp"
 #include "sspc/io.hpp"
 #include "test_util.hpp"
@@ -112,6 +115,17 @@ TEST(ReadPointCloud, ReportsProgressInBytesForEveryFormat) {
     EXPECT_EQ(progress.done_, progress.total_) << name;
     EXPECT_EQ(progress.total_, std::filesystem::file_size(dir.path() / name)) << name;
   }
+}
+
+TEST(ReadPointCloud, AFifoIsAnErrorNotAHang) {
+  test::TempDir dir;
+  const auto path = dir.path() / "pipe.xyz";
+  ASSERT_EQ(mkfifo(path.c_str(), 0600), 0);
+  alarm(10);  // a blocking open() would otherwise hang until CTest's timeout
+  const StatusOr<PointCloud> c = read_point_cloud(path);
+  alarm(0);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.status().message(), path.string() + ": not a regular file (a FIFO)");
 }
 
 }  // namespace
