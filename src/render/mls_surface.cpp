@@ -21,6 +21,13 @@ constexpr int kMaxMarchSamples = 1 << 16;
 // Every step advances t by at least this many units in the last place of the ray's coordinates,
 // so that a bandwidth below float32's resolution at the ray's distance cannot stall the march.
 constexpr float kMinStepUlps = 4.0f;
+// Samples in a row where the surface is undefined before the march measures how far it may skip
+// (doubled after each measurement that allowed no skip). After 4, the measuring cost dragon_scans
+// 10% of its rays per second uncompressed and 15% compressed; after 16, 0% and 5%; after 32,
+// nothing measurable (1024², median of 3, 1.39 against 1.37 Mrays/s compressed), while a sparse
+// cloud of tiny spacing (a fuzzer's 12 points, some 2e-7 apart, 1.5 across) renders 1024² in
+// 0.15 s instead of taking 65,536 samples a ray.
+constexpr int kMissesBeforeSkip = 32;
 constexpr float kTolerance = 1e-3f;
 // The grid never has more cells than this many per point (plus a few for tiny sets): cells grow
 // beyond the support radius for sparse, spread-out points instead, which costs more candidates
@@ -261,6 +268,29 @@ bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) co
   return n.squaredNorm() > 0;
 }
 
+float MlsSurface::clearance(const Vec3f& x) const {
+  int c[3];
+  for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
+  const int z_cells = compact_ ? 0 : 1;
+  float nearest2 = std::numeric_limits<float>::infinity();
+  for (int iz = std::max(c[2] - z_cells, 0); iz <= std::min(c[2] + z_cells, dims_[2] - 1); ++iz) {
+    for (int iy = std::max(c[1] - 1, 0); iy <= std::min(c[1] + 1, dims_[1] - 1); ++iy) {
+      for (int ix = std::max(c[0] - 1, 0); ix <= std::min(c[0] + 1, dims_[0] - 1); ++ix) {
+        const std::size_t cell = cell_index(ix, iy, iz);
+        const Vec3f corner = cell_corner(ix, iy, iz);
+        for (std::uint32_t j = cell_begin(cell); j < cell_begin(cell + 1); ++j) {
+          const Vec3f p = compact_ ? corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f),
+                                                    qz_[j] * (cell_[2] / 255.0f))
+                                   : Vec3f(x_[j], y_[j], z_[j]);
+          nearest2 = std::min(nearest2, (p - x).squaredNorm());
+        }
+      }
+    }
+  }
+  const float edge = compact_ ? std::min(cell_[0], cell_[1]) : std::min({cell_[0], cell_[1], cell_[2]});
+  return std::min(std::sqrt(nearest2), edge);
+}
+
 std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, float t_min,
                                                 float t_max) const {
   if (size_ == 0) return std::nullopt;
@@ -300,6 +330,8 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
   bool have_previous = false;
   float t_previous = 0, f_previous = 0;
   int samples = 0;
+  int misses = 0;  // consecutive samples where the surface was undefined
+  int skip_at = kMissesBeforeSkip;
   while (t <= t_max && ++samples <= kMaxMarchSamples) {
     const Vec3f x = o + t * d;
     int c[3];
@@ -317,10 +349,24 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     }
     float f = 0;
     if (!f_at(t, f)) {
-      t += march_step;
+      // Undefined here. After a few such samples in a row, skip what lies farther than r from
+      // every point (a cell far wider than r, as in a sparse cloud with a tiny spacing, would
+      // otherwise cost a sample every h/2 across it).
+      float step = march_step;
+      if (++misses >= skip_at) {
+        const float gap = clearance(o + t * d) - radius_;
+        if (gap > step) {
+          step = gap;
+        } else {
+          skip_at = 2 * misses;
+        }
+      }
+      t += step;
       have_previous = false;
       continue;
     }
+    misses = 0;
+    skip_at = kMissesBeforeSkip;
     if (have_previous && (f > 0) != (f_previous > 0)) {
       // f changed sign between the last two samples: the surface is in between. Regula falsi
       // with the Illinois rule (the end that stays is halved), a handful of evaluations.

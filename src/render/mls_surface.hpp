@@ -63,6 +63,12 @@ class MlsSurface {
   // (too little support).
   bool evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) const;
 
+  // A lower bound on the distance from x to every point: the nearest point in the cells next to
+  // x's (3 × 3 × 3 cells, or 3 × 3 columns when compact), at most one cell edge, beyond which
+  // lie the cells not searched. Where it exceeds r, the surface is undefined for that much
+  // further along any ray, which the march then skips in one step.
+  float clearance(const Vec3f& x) const;
+
   float bandwidth() const { return h_; }
   float support_radius() const { return radius_; }
   std::size_t size() const { return size_; }

@@ -159,6 +159,31 @@ TEST(MlsSurface, AVanishingBandwidthStillEnds) {
   }
 }
 
+// The clearance is a lower bound on the distance to every point, and exact when the nearest point
+// is within a cell: the march skips by clearance − r where the surface is undefined, which
+// must never step over a point's support.
+TEST(MlsSurface, ClearanceIsALowerBoundOnTheDistanceToEveryPoint) {
+  std::vector<Vec3f> points, normals;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (int i = 0; i < 200; ++i) {
+    points.emplace_back(u(rng), u(rng), 0.1f * u(rng));
+    normals.emplace_back(0.0f, 0.0f, 1.0f);
+  }
+  for (const auto storage : {render::PointStorage::kFloat, render::PointStorage::kCompact}) {
+    const render::MlsSurface surface(points, normals, 0.01f, 0.0f, storage);
+    for (int q = 0; q < 500; ++q) {
+      const Vec3f x(1.5f * u(rng), 1.5f * u(rng), 0.5f * u(rng));
+      float nearest = std::numeric_limits<float>::infinity();
+      for (const Vec3f& p : points) nearest = std::min(nearest, (p - x).norm());
+      const float bound = surface.clearance(x);
+      // Compact positions are rounded to a 255th of a cell; allow for that.
+      EXPECT_LE(bound, nearest + (storage == render::PointStorage::kCompact ? 0.02f : 1e-6f)) << q;
+      EXPECT_GT(bound, 0.0f);
+    }
+  }
+}
+
 // A valid model whose header spacing is 0 or a denormal (the format allows ≥ 0) is refused with
 // a message naming the spacing, rather than rendered in steps that never move.
 TEST(Renderer, CompressedModelWithAVanishingSpacingIsRefused) {
