@@ -69,11 +69,13 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   const Vec3f extent = box.max() - box.min() + Vec3f::Constant(2 * radius_);
   if (compact_) cell_[2] = extent.z();  // one layer
   const double budget = std::max(kMaxCellsPerPoint * static_cast<double>(n), kMinCells);
-  for (;;) {
+  // Cells grow until they fit the budget: 1.25^400 spans float32's whole range, so the bound
+  // only stops a loop that a cell edge of 0 (a bandwidth of 0) would never end.
+  for (int grow = 0; grow < 400; ++grow) {
     double cells = 1;
     for (int a = 0; a < 3; ++a) cells *= std::max(1.0, std::ceil(static_cast<double>(extent[a] / cell_[a])));
     if (cells <= budget) break;
-    for (int a = 0; a < (compact_ ? 2 : 3); ++a) cell_[a] *= 1.25f;
+    for (int a = 0; a < (compact_ ? 2 : 3); ++a) cell_[a] = std::max(cell_[a] * 1.25f, std::numeric_limits<float>::min());
   }
   for (int a = 0; a < 3; ++a) {
     dims_[a] = std::max(1, static_cast<int>(std::ceil(extent[a] / cell_[a])));
