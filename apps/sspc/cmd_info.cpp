@@ -27,10 +27,6 @@ const char* format_name(PointCloudFormat f) {
   return "detected from content";
 }
 
-void write_vec3(JsonWriter& json, const Vec3f& v) {
-  json.begin_array().value(double{v.x()}).value(double{v.y()}).value(double{v.z()}).end_array();
-}
-
 std::string format_vec3(const Vec3f& v) {
   char buf[128];
   std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", double{v.x()}, double{v.y()}, double{v.z()});

@@ -11,14 +11,6 @@
 #include "sspc/compressed_model.hpp"
 
 namespace sspc::cli {
-namespace {
-
-void write_vec3(JsonWriter& json, const Vec3f& v) {
-  json.begin_array().value(double{v.x()}).value(double{v.y()}).value(double{v.z()}).end_array();
-}
-
-}  // namespace
-
 bool is_sspc_file(const std::string& path) {
   static constexpr char kMagic[8] = {'\x8A', 'S', 'P', 'C', '\r', '\n', '\x1A', '\n'};
   // Opening a FIFO would wait for a writer; anything but a regular file is left to the reader

@@ -107,4 +107,8 @@ JsonWriter& JsonWriter::null() {
   return *this;
 }
 
+void write_vec3(JsonWriter& json, const Vec3f& v) {
+  json.begin_array().value(double{v.x()}).value(double{v.y()}).value(double{v.z()}).end_array();
+}
+
 }  // namespace sspc::cli

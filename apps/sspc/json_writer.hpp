@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "sspc/point_cloud.hpp"
+
 namespace sspc::cli {
 
 class JsonWriter {
@@ -41,5 +43,8 @@ class JsonWriter {
   std::vector<bool> first_;  // per open container: no element written yet
   bool after_key_ = false;
 };
+
+// [x, y, z] as a JSON array of numbers.
+void write_vec3(JsonWriter& json, const Vec3f& v);
 
 }  // namespace sspc::cli

@@ -51,7 +51,7 @@ test::ModelShape default_shape() {
   return s;
 }
 
-QuantOptions small_blocks() {
+QuantOptions eight_patch_blocks() {
   QuantOptions o;
   o.patches_per_block = 8;
   o.codewords_per_block = 2;
@@ -78,7 +78,7 @@ TEST(DecoderTest, DecodePatchIsItsPartOfDecodeAll) {
   for (bool full : {false, true}) {
     test::ModelShape s = default_shape();
     s.full_rotations = full;
-    Fixture f = make_fixture(s, small_blocks());
+    Fixture f = make_fixture(s, eight_patch_blocks());
     ASSERT_EQ(f.offsets.back(), f.all.size());
     for (std::size_t k = 0; k < f.compressed.patch_count(); ++k) {
       auto p = f.compressed.decode_patch(k);
@@ -90,7 +90,7 @@ TEST(DecoderTest, DecodePatchIsItsPartOfDecodeAll) {
 }
 
 TEST(DecoderTest, DecodeBoxIsDecodeAllFilteredByTheBox) {
-  Fixture f = make_fixture(default_shape(), small_blocks());
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   test::TestRng rng(21);
   std::vector<Box3f> boxes = {Box3f(Vec3f(-100, -100, -100), Vec3f(100, 100, 100)),
                               Box3f(Vec3f(50, 50, 50), Vec3f(60, 60, 60)),
@@ -122,7 +122,7 @@ TEST(DecoderTest, DecodeBoxIsDecodeAllFilteredByTheBox) {
 }
 
 TEST(DecoderTest, OverlapModeKeepsEveryInstanceWhole) {
-  Fixture f = make_fixture(default_shape(), small_blocks());
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   std::size_t expected = 0;
   for (const PatchInstance& p : f.model.patches)
     expected += f.model.codebook[p.codeword].points.size();
@@ -144,7 +144,7 @@ TEST(DecoderTest, OverlapModeKeepsEveryInstanceWhole) {
 // The default mode's regions are Voronoi cells: every point a patch keeps is (to float rounding)
 // at least as near its own centre as any other, and the decoded count is close to the source's.
 TEST(DecoderTest, RegionsAreVoronoiCellsAndCoverThePlane) {
-  Fixture f = make_fixture(default_shape(), small_blocks());
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   std::vector<Vec3f> centres;
   for (std::size_t k = 0; k < f.compressed.patch_count(); ++k) {
     centres.push_back(f.compressed.patch(k)->translation);
@@ -176,7 +176,7 @@ TEST(DecoderTest, RegionsAreVoronoiCellsAndCoverThePlane) {
 
 TEST(DecoderTest, DecodeAllIsDeterministicAcrossBlockSizes) {
   // Different block sizes change the file, never the decoded points.
-  Fixture a = make_fixture(default_shape(), small_blocks());
+  Fixture a = make_fixture(default_shape(), eight_patch_blocks());
   QuantOptions big;
   big.patches_per_block = 1000;
   big.codewords_per_block = 1000;
@@ -187,8 +187,8 @@ TEST(DecoderTest, DecodeAllIsDeterministicAcrossBlockSizes) {
 TEST(DecoderTest, TrimmingUnclaimedPointsKeepsTheDecodedModel) {
   // The writer may drop the code-word points no instance claims: the default decode must not
   // change by a single bit, per patch as well as whole, while the code book shrinks.
-  Fixture full = make_fixture(default_shape(), small_blocks());
-  QuantOptions trim = small_blocks();
+  Fixture full = make_fixture(default_shape(), eight_patch_blocks());
+  QuantOptions trim = eight_patch_blocks();
   trim.trim_unclaimed = true;
   ContainerStats stats;
   auto bytes = encode_container(full.model, trim, &stats);
@@ -212,7 +212,7 @@ TEST(DecoderTest, TrimmingUnclaimedPointsKeepsTheDecodedModel) {
 }
 
 TEST(DecoderTest, ConcurrentQueriesAgree) {
-  Fixture f = make_fixture(default_shape(), small_blocks());
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   std::vector<std::thread> threads;
   std::atomic<int> mismatches{0};
   for (int t = 0; t < 4; ++t) {
