@@ -1,4 +1,4 @@
-// sspc normals IN OUT: give a point cloud consistently oriented unit normals (SPEC step 2).
+// sspc normals IN OUT: give a point cloud consistently oriented unit normals (include/sspc/normals.hpp).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>

@@ -1,5 +1,5 @@
 // sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
-// directly, without decoding it (SPEC step 10, paper §5).
+// directly, without decoding it (paper §5).
 #include <algorithm>
 #include <charconv>
 #include <cmath>

@@ -1,4 +1,4 @@
-// Compressing a point cloud into an .sspc file (Hubo et al. 2007, §4; SPEC steps 2–8).
+// Compressing a point cloud into an .sspc file (Hubo et al. 2007, §4; the format in docs/FORMAT.md).
 #pragma once
 
 #include <cstdint>

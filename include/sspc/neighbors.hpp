@@ -1,6 +1,6 @@
 // Neighbour search: thin wrappers over nanoflann's k-d tree, used everywhere in sspc. KdTree3
 // searches 3-D points in the Euclidean metric; KdTreeL1 searches descriptor vectors of any
-// dimension in the L1 metric (the code book's match distance, SPEC step 7).
+// dimension in the L1 metric (the code book's match distance, paper §4.3).
 //
 // Answers do not depend on the tree's shape: among equidistant points the lower index comes
 // first (and is kept when only some of them fit in k), and radius queries include the boundary.

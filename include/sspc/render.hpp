@@ -1,4 +1,4 @@
-// Ray tracing point clouds through their MLS surface (Hubo et al. 2007, §5; SPEC step 10).
+// Ray tracing point clouds through their MLS surface (Hubo et al. 2007, §5).
 // The same MLS surface and camera render an uncompressed cloud and a compressed model, so their
 // images and timings compare one to one.
 #pragma once

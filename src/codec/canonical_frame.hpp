@@ -1,4 +1,4 @@
-// Translation and orientation normalisation of a patch (Hubo et al. 2007, §4.2.1; SPEC step 5).
+// Translation and orientation normalisation of a patch (Hubo et al. 2007, §4.2.1).
 //
 // The canonical frame has its origin at the patch centroid, +Z along the mean normal, and +X at
 // the patch's mean normal azimuth. After the first rotation the plain sum of the normals' x,y

@@ -167,7 +167,7 @@ Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<c
   const Vec3f landed = world_from_codeword.translation;
   if ((landed - centre).norm() > kMaxDrift * o.coverage_radius) return m;
 
-  // The test measures what the codec is judged by (SPEC step 11): within the region the
+  // The test measures what the codec is judged by (docs/METRICS.md): within the region the
   // instance will decode (the points within the coverage radius of its centre), the RMS
   // distance from each source point to the nearest code-word point, and from each code-word
   // point to the nearest source point. The paper's MLS residual sees only the distance to the

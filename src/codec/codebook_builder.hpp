@@ -1,4 +1,4 @@
-// The greedy code book (Hubo et al. 2007, §4.3; SPEC steps 4–7): patches, their canonical
+// The greedy code book (Hubo et al. 2007, §4.2–4.3): patches, their canonical
 // frames and descriptors, then, repeatedly, the remaining patch of smallest curvature becomes a
 // code word and every remaining patch whose descriptor lies within L1 radius ε of its own is
 // aligned to it by ICP and replaced by a reference to it when the MLS error is under τ.

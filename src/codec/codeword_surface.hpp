@@ -1,6 +1,6 @@
 // A code word's points and normals with their k-d tree: the target that candidate patches are
-// aligned to by ICP and then measured against by nearest-point distances (paper §4.3; SPEC
-// step 7). The paper measured the fit by the MLS residual n(x)·(x − a(x)); the encoder now
+// aligned to by ICP and then measured against by nearest-point distances (paper §4.3).
+// The paper measured the fit by the MLS residual n(x)·(x − a(x)); the encoder now
 // measures what the codec is judged by, nearest-point distances (see try_match in
 // codebook_builder.cpp), so only the points, their normals (for point-to-plane ICP) and the
 // tree are needed here. The MLS surface itself lives in src/render/mls_surface.

@@ -1,4 +1,4 @@
-// Trimming code words to the points their instances claim (SPEC step 9, beyond the paper).
+// Trimming code words to the points their instances claim (docs/FORMAT.md, "Decoding: regions"; beyond the paper).
 //
 // The paper stores each representative's whole sphere of radius R. The decoder keeps, of each
 // instance, only the code-word points in the instance's own region (the Voronoi cell of its

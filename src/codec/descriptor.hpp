@@ -1,4 +1,4 @@
-// The patch descriptor (Hubo et al. 2007, §4.2.2; SPEC step 6).
+// The patch descriptor (Hubo et al. 2007, §4.2.2).
 //
 // Two 1-D histograms, of the canonical normals' x and of their y, each coordinate first
 // stretched by s(v) = tanh(a·v) / tanh(a), which widens the bins near 0 where most normals of a

@@ -1,7 +1,7 @@
 // Point-to-plane ICP (Chen & Medioni 1992; linearised as in Low 2004), with a small
 // point-to-point term, refining the alignment
-// of a candidate patch to a representative from their canonical frames (paper §4.3, SPEC
-// step 7). Both are in their canonical frames already, so the start is the identity and the
+// of a candidate patch to a representative from their canonical frames (paper §4.3).
+// Both are in their canonical frames already, so the start is the identity and the
 // refinement is small: a handful of iterations.
 #pragma once
 

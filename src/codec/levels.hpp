@@ -1,4 +1,4 @@
-// Rate levels: one table of parameters, as zstd's levels are (SPEC step 7: ε and τ set the
+// Rate levels: one table of parameters, as zstd's levels are (paper §4.3: ε and τ set the
 // rate). Level 0 keeps the most detail, level 9 makes the smallest files. Expert flags override
 // single fields of the row.
 #pragma once

@@ -1,4 +1,4 @@
-// The encoder's geometry pipeline (SPEC steps 3–7) from a cloud with normals to the in-memory
+// The encoder's geometry pipeline (Hubo et al. 2007, §4.1–4.3) from a cloud with normals to the in-memory
 // compressed model: patch size from the point density, centres, patches, code book.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Patch centres (Hubo et al. 2007, §4.1; SPEC step 3): centres spread evenly over the surface,
+// Patch centres (Hubo et al. 2007, §4.1): centres spread evenly over the surface,
 // drawn to features, and covering every input point.
 //
 // 1. A deterministic Poisson-disk subset of the points (a seeded random order; a point becomes

@@ -1,4 +1,4 @@
-// Region decoding (SPEC step 9; docs/FORMAT.md, "Decoding: regions"): patch k emits the code
+// Region decoding (docs/FORMAT.md, "Decoding: regions"): patch k emits the code
 // word's points whose nearest region centre is k's own, ties to the lower patch index.
 //
 // The test runs in the code word's frame: with e_j = R_kᵀ (c_j − c_k) the neighbour's centre

@@ -1,4 +1,4 @@
-// Normals' angular error (SPEC step 11; definition in docs/METRICS.md, "Normals' angular error").
+// Normals' angular error (definition in docs/METRICS.md, "Normals' angular error").
 #include "eval/normal_angle.hpp"
 
 #include <algorithm>

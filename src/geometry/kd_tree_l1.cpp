@@ -1,5 +1,5 @@
 // KdTreeL1: L1 (Manhattan) neighbour search over descriptor vectors of runtime dimension, over
-// nanoflann's k-d tree. The code book (SPEC step 7, Hubo et al. 2007 section 4.3) compares
+// nanoflann's k-d tree. The code book (Hubo et al. 2007, §4.3) compares
 // patch descriptors, cumulative histograms, with the L1 distance, a 1-D earth mover's distance.
 //
 // nanoflann's L1_Adaptor sums in groups of four, so its distances can differ in the last bit

@@ -1,4 +1,4 @@
-// The compressed renderer (paper §5; SPEC step 10): rays traverse a BVH over the patches'
+// The compressed renderer (paper §5): rays traverse a BVH over the patches'
 // bounding spheres; for each sphere a ray meets, the ray goes into the code word's frame
 // (codeword_from_world = Rᵀ(x − c), which keeps t) and meets the MLS surface of the code word's
 // points, built once per code word and shared by all its instances. The hits of overlapping

@@ -1,5 +1,5 @@
 // The MLS surface of a point set and its intersection with rays (Adamson & Alexa 2003,
-// "Approximating and intersecting surfaces from points"; SPEC step 10, paper §5).
+// "Approximating and intersecting surfaces from points"; paper §5).
 //
 // f(x) = n(x) · (x − a(x)), where a(x) and n(x) are the averages of the points and normals
 // near x weighted by the Gaussian exp(−|x − p|² / h²), lowered by its value at the support

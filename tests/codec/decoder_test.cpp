@@ -1,4 +1,4 @@
-// Region decoding (SPEC step 9, FORMAT.md "Decoding: regions"): one patch, one box and the whole
+// Region decoding (docs/FORMAT.md, "Decoding: regions"): one patch, one box and the whole
 // model agree exactly; the regions are Voronoi cells; overlap mode keeps every instance whole;
 // concurrent queries give the same answers.
 #include <gtest/gtest.h>
