@@ -1,4 +1,5 @@
-// Normal estimation and consistent orientation (the patch descriptors of Hubo et al. 2007, §4.2.2, are histograms of normals).
+// Normal estimation and consistent orientation (the patch descriptors of Hubo et al. 2007,
+// §4.2.2, are histograms of normals).
 //
 // Normals are estimated by principal component analysis of each point's k nearest neighbours
 // and oriented consistently by propagation along a minimum spanning tree of the neighbour graph
