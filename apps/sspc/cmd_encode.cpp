@@ -1,4 +1,5 @@
-// sspc encode IN OUT.sspc: compress a point cloud by its self-similarity (paper §4; docs/FORMAT.md).
+// sspc encode IN OUT.sspc: compress a point cloud by its self-similarity (paper §4;
+// docs/FORMAT.md).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>

@@ -1,7 +1,6 @@
 // The compressed model in memory: what the encoder produces, the container writes and reads,
 // and the decoder expands (paper §4.3: a code book of representative patches and, per patch, a
-// code-word index and a rigid transform;
-// docs/FORMAT.md).
+// code-word index and a rigid transform; the file in docs/FORMAT.md).
 //
 // Frames: a code word's points live in its own canonical frame, whose origin is the centre c
 // of the representative patch it was taken from (not the centroid: the decoder needs the
