@@ -226,8 +226,10 @@ Status spacing_too_small(double spacing) {
 
 }  // namespace
 
-Status check_coordinate_range(std::span<const Vec3f> positions) {
-  const Extent e = measure_extent(positions);
+namespace {
+
+// The spacing-free checks, on an extent already measured.
+Status check_extent(const Extent& e) {
   if (e.largest > kMaxCoordinate) {
     char text[256];
     std::snprintf(text, sizeof text,
@@ -248,9 +250,15 @@ Status check_coordinate_range(std::span<const Vec3f> positions) {
   return Status();
 }
 
+}  // namespace
+
+Status check_coordinate_range(std::span<const Vec3f> positions) {
+  return check_extent(measure_extent(positions));
+}
+
 Status check_geometry_range(std::span<const Vec3f> positions, double spacing) {
-  SSPC_RETURN_IF_ERROR(check_coordinate_range(positions));
-  const Extent e = measure_extent(positions);
+  const Extent e = measure_extent(positions);  // one pass over the points for both checks
+  SSPC_RETURN_IF_ERROR(check_extent(e));
   if (e.side == 0) return invalid_argument("all points coincide");
   if (!(spacing >= kMinSpacing)) return spacing_too_small(spacing);
   if (e.side > kMaxExtentInSpacings * spacing) {
