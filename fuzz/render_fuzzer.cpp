@@ -52,7 +52,9 @@ void check_image(const sspc::StatusOr<sspc::Image>& image) {
 void render_model(const std::string& bytes) {
   auto model = sspc::CompressedModel::from_bytes(bytes);
   if (!model.ok()) return;  // the decoder's own target covers what it refuses
-  auto scene = sspc::RenderScene::from_compressed(*model, 1.5f, nullptr, bytes.size() % 2 == 0);
+  // Half the inputs with a budget of a few bricks, so that eviction runs too.
+  auto scene = sspc::RenderScene::from_compressed(std::make_shared<const sspc::CompressedModel>(std::move(*model)), 1.5f,
+                                                  bytes.size() % 2 == 0 ? sspc::kDefaultMemoryBudget : 64 << 10);
   if (!scene.ok()) {
     SSPC_FUZZ_CHECK(!scene.status().message().empty());
     return;

@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Primary-ray rendering benchmark (issue: the renderer, item 6): each scan rendered at 1024×1024
 # on 2 threads from the automatic camera, uncompressed (one MLS surface over its points) and
-# compressed (the .sspc model at the default level, rendered directly): scene build seconds,
-# Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per original point
-# and peak memory. Writes docs/results/render_bench.csv and its table in docs/RESULTS.md.
+# compressed (the .sspc model at each level, rendered directly under each memory budget): scene
+# build seconds, Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per
+# original point (peak of the brick cache for a compressed model), peak memory, and, for the
+# compressed model, the image PSNR over hit pixels and the pixels hit in one only against the
+# render of the same model's decode (docs/METRICS.md, "Images"). Writes
+# docs/results/render_bench.csv and its table in docs/RESULTS.md.
 #
 # Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
-#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="5"   STORAGES="compact float"
+#   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="0 5 9"   BUDGETS="512 64" (MiB)
 #   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
 # Installs what it needs (a release build, Debian's time package, python3).
 set -euo pipefail
@@ -15,8 +18,8 @@ data="${1:-../shared/data}"
 SCANS="${SCANS:-bunny dragon_scans autzen}"
 SIZE="${SIZE:-1024x1024}"
 THREADS="${THREADS:-2}"
-LEVELS="${LEVELS:-5}"
-STORAGES="${STORAGES:-compact float}"
+LEVELS="${LEVELS:-0 5 9}"
+BUDGETS="${BUDGETS:-512 64}"
 WORK="${WORK:-/tmp/sspc_bench_render}"
 if [ ! -d "$data" ]; then
   echo "bench_render: no data directory $data; nothing to measure" >&2
@@ -36,7 +39,7 @@ cmake --build build --target sspc_cli >/dev/null
 sspc="$PWD/build/sspc"
 mkdir -p "$WORK" docs/results
 csv=docs/results/render_bench.csv
-echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib" > "$csv"
+echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
 
 # One configuration: three renders, the median render time; build time and memory of the first.
 measure() {  # scan model-label input [render options]
@@ -44,7 +47,7 @@ measure() {  # scan model-label input [render options]
   shift 3
   for r in 1 2 3; do
     /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" \
-      -o "$WORK/frame.png" -f --size "$SIZE" --json "$@" > "$WORK/run$r.json"
+      -o "$WORK/frame_$label.png" -f --size "$SIZE" --json "$@" > "$WORK/run$r.json"
     runs+=("$WORK/run$r.json")
     rss_kib[$r]=$(tail -1 "$WORK/rss")
   done
@@ -56,7 +59,9 @@ runs.sort(key=lambda r: r["render_seconds"])
 m = runs[len(runs) // 2]
 print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
       f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["hits"]},{m["evaluations_per_hit"]:.1f},'
-      f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f}')
+      f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f},'
+      + (f'{m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"},{100 * m["hit_one_only_fraction"]:.3f}'
+         if "psnr_hit_db" in m else ","))
 EOF
   tail -1 "$csv"
 }
@@ -72,8 +77,14 @@ for scan in $SCANS; do
   for level in $LEVELS; do
     model="$WORK/$scan.l$level.sspc"
     [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
-    for storage in $STORAGES; do
-      measure "$scan" "compressed-l$level-$storage" "$model" --storage "$storage"
+    # The reference: the same model decoded, its normals estimated, rendered as a point cloud.
+    decoded="$WORK/$scan.l$level.decoded.ply"
+    [ -f "$decoded" ] || { "$sspc" --quiet decode "$model" "$WORK/d.ply" -f &&
+                           "$sspc" --quiet normals "$WORK/d.ply" "$decoded" --normals auto; }
+    measure "$scan" "decoded-l$level" "$decoded"
+    for budget in $BUDGETS; do
+      measure "$scan" "compressed-l$level-${budget}MiB" "$model" --memory-budget "$budget" \
+        --compare "$WORK/frame_decoded-l$level.png"
     done
   done
 done
@@ -88,12 +99,16 @@ rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
          "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera (the scan's "
          "bounding box seen from +z), Mrays/s over all rays (median of 3 frames), scene bytes per original point "
-         "(points, normals, grids, BVH and transforms), peak memory of the whole process.", "",
-         "| scan | model | build s | Mrays/s | rays hit | MLS evaluations per hit | scene bytes/point | peak MiB |",
-         "|---|---|---:|---:|---:|---:|---:|---:|"]
+         "(points, normals and grids; a compressed model's the peak of its brick cache under the budget named), "
+         "peak memory of the whole process; a compressed model's image PSNR over the pixels hit and the pixels "
+         "hit in one image only, against the render of its own decode (`decoded-lN`).", "",
+         "| scan | model | build s | Mrays/s | rays hit | MLS evaluations per hit | scene bytes/point | peak MiB "
+         "| PSNR hit dB | hit in one only % |",
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
 for r in rows:
     lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
-                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} |')
+                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} | '
+                 f'{r["psnr_hit_db"]} | {r["hit_one_only_percent"]} |')
 print("\n".join(lines))
 replace_section(results, "render-bench", "Renderer: speed and memory", lines)
 EOF

@@ -3,8 +3,7 @@
 # present, so repeated runs cost nothing.
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflann-dev libtbb-dev
-          libzstd-dev libcli11-dev libpng-dev libgtest-dev libbenchmark-dev
-          libembree-dev)  # optional: only bench/bvh_bench.cpp (SphereBvh against Embree) uses it
+          libzstd-dev libcli11-dev libpng-dev libgtest-dev libbenchmark-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

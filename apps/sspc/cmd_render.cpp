@@ -32,12 +32,12 @@ struct RenderCliOptions {
   float fov = 40;
   float bandwidth = 1.5f;
   Shade shade = Shade::kLambert;
-  bool compact = true;
   double budget_mib = 0;
   std::string page_dir;
   std::string camera_path;
   int orbit = 0;
   std::string times;
+  std::string compare;
   bool force = false;
   bool json = false;
 };
@@ -168,6 +168,18 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   if (sequence) outputs.push_back(times);
   std::vector<std::string> inputs{o.input};
   if (!o.camera_path.empty()) inputs.push_back(o.camera_path);
+  if (!o.compare.empty()) inputs.push_back(o.compare);
+  // The image to compare with, read before the scene is built: a bad one fails at once.
+  std::optional<Image> reference;
+  if (!o.compare.empty()) {
+    auto read = read_png(o.compare);
+    if (!read.ok()) return report_failure(read.status());
+    if (read->width != options.width || read->height != options.height) {
+      return report_failure(invalid_argument(o.compare + ": " + std::to_string(read->width) + "x" +
+                                             std::to_string(read->height) + " pixels, but the render is " + o.size));
+    }
+    reference = std::move(read).value();
+  }
   if (Status s = check_outputs(inputs, outputs, o.force); !s.ok()) return report_failure(s);
   if (sequence) {
     // Every frame and the times CSV are staged beside them and moved into place together at the
@@ -191,7 +203,10 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     auto model = CompressedModel::open(o.input);
     if (!model.ok()) return report_failure(model.status());
     points = model->info().source_points;
-    scene = RenderScene::from_compressed(*model, o.bandwidth, progress.get(), o.compact);
+    const std::uint64_t budget =
+        o.budget_mib > 0 ? static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024) : kDefaultMemoryBudget;
+    scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(model).value()), o.bandwidth,
+                                         budget, progress.get());
   } else {
     ReadOptions read;
     read.progress = progress.get();
@@ -229,6 +244,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   }
 
   std::vector<RenderStats> frames;
+  std::optional<ImageComparison> comparison;
   if (sequence) progress_begin(progress.get(), "render", cameras.size(), "frames");
   std::string csv =
       "frame,eye_x,eye_y,eye_z,target_x,target_y,target_z,render_seconds,rays,hits,evaluations,rays_per_second,"
@@ -240,6 +256,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     auto image = (*scene)->render(options, &stats);
     if (!image.ok()) {
       return report_failure(image.status().with_context(o.input + (sequence ? " frame " + std::to_string(f) : "")));
+    }
+    if (reference) {
+      auto compared = compare_images(*image, *reference);
+      if (!compared.ok()) return report_failure(compared.status().with_context(o.compare));
+      comparison = *compared;
     }
     const std::string path = sequence ? staging.stage(frame_path(o.output, f)).string() : o.output;
     if (Status s = write_png(*image, path); !s.ok()) return report_failure(s);
@@ -299,7 +320,6 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         .field("render_seconds", total.render_seconds)
         .field("frame_seconds_median", median)
         .field("rays_per_second", rays_per_second)
-        .field("storage", is_sspc_file(o.input) ? (o.compact ? "compact" : "float") : "float")
         .field("scene_bytes", bytes)
         .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0)
         .field("bytes_read", total.bytes_read)
@@ -307,6 +327,14 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     if (o.budget_mib > 0) {
       json.field("memory_budget_bytes", static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024))
           .field("within_budget", static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024);
+    }
+    if (comparison) {
+      json.field("compare", o.compare)
+          .field("psnr_hit_db", comparison->psnr_hit)
+          .field("hit_both", comparison->hit_both)
+          .field("hit_first_only", comparison->hit_first_only)
+          .field("hit_second_only", comparison->hit_second_only)
+          .field("hit_one_only_fraction", comparison->one_only_fraction());
     }
     if (sequence) {
       json.field("times", times).key("frame_seconds").begin_array();
@@ -326,6 +354,13 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
                 o.input.c_str(), static_cast<unsigned long long>(points), o.output.c_str(), options.width, options.height,
                 static_cast<unsigned long long>(total.hits), static_cast<unsigned long long>(total.rays), build,
                 total.render_seconds, rays_per_second);
+  }
+  if (comparison && !o.json) {
+    std::printf("against %s: image PSNR %.2f dB over the %llu pixels both hit; %llu pixels hit here only, %llu there "
+                "only (%.3f%% of those hit)\n",
+                o.compare.c_str(), comparison->psnr_hit, static_cast<unsigned long long>(comparison->hit_both),
+                static_cast<unsigned long long>(comparison->hit_first_only),
+                static_cast<unsigned long long>(comparison->hit_second_only), 100.0 * comparison->one_only_fraction());
   }
   return kExitOk;
 }
@@ -357,14 +392,9 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--shade", o->shade, "lambert, normal, depth, or codeword (a colour per code word)")
       ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case))
       ->default_str("lambert");
-  const std::map<std::string, bool> storages{{"compact", true}, {"float", false}};
-  app->add_option("--storage", o->compact,
-                  "A compressed model's code words in memory: compact (6 bytes a point) or float (24, faster)")
-      ->transform(CLI::CheckedTransformer(storages, CLI::ignore_case))
-      ->default_str("compact");
   app->add_option("--memory-budget", o->budget_mib,
-                  "MiB a point cloud's scene may hold: its points are paged in from a file through a cache of that "
-                  "size (a compressed model is reported against it)")
+                  "MiB the scene may hold: a point cloud's points are paged in from a file through a cache of that "
+                  "size; a compressed model's decoded bricks are cached within it (default 512)")
       ->check(number_in(1, 1e7));
   app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)")
       ->check(CLI::ExistingDirectory);
@@ -376,6 +406,12 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
       ->check(CLI::Range(1, 100000))
       ->excludes("--camera-path");
   app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)");
+  app->add_option("--compare", o->compare,
+                  "A PNG of the same size to compare the render with: image PSNR over the pixels both hit, and the "
+                  "pixels hit in one only (docs/METRICS.md)")
+      ->check(CLI::ExistingFile)
+      ->excludes("--camera-path")
+      ->excludes("--orbit");
   app->add_flag("-f,--force", o->force, "Overwrite existing output files");
   app->add_flag("--json", o->json, "Machine-readable statistics on stdout");
   return {app, [o, &global] { return run_render(*o, global); }};

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -31,6 +32,10 @@ struct DecodeOptions {
   // instance (whole spheres when the file was written with --full-spheres).
   bool overlap = false;
   Progress* progress = nullptr;
+  // When not null, replaced by the patch of each decoded point, index for index with the
+  // returned cloud (what a renderer needs to colour points by code word, and what a user needs
+  // to tell instances apart).
+  std::vector<std::uint32_t>* patch_of = nullptr;
 };
 
 // Patch k as stored: its code word and the transform world_from_codeword (x ↦ R x + t); t is

@@ -30,6 +30,9 @@ struct Camera {
 // A camera that frames `bounds` from the +Z side (the usual "front" of a scan), or null bounds.
 Camera frame_bounds(const Box3f& bounds, float fov_degrees = 40);
 
+// What a compressed scene holds of decoded bricks unless told otherwise: 512 MiB.
+inline constexpr std::uint64_t kDefaultMemoryBudget = std::uint64_t{512} << 20;
+
 struct RenderOptions {
   int width = 1024;
   int height = 1024;
@@ -37,8 +40,8 @@ struct RenderOptions {
   Shade shade = Shade::kLambert;
   // The MLS bandwidth h in point spacings (the cloud's median nearest-neighbour distance).
   float bandwidth = 1.5f;
-  // How a compressed scene keeps its code words (RenderScene::from_compressed).
-  bool compact = true;
+  // What the one-call render_compressed() may hold of decoded bricks (RenderScene::from_compressed).
+  std::uint64_t memory_budget_bytes = kDefaultMemoryBudget;
   Progress* progress = nullptr;
 };
 
@@ -79,14 +82,16 @@ class RenderScene {
                                                                        std::uint64_t budget_bytes,
                                                                        const std::filesystem::path& page_dir,
                                                                        Progress* progress = nullptr);
-  // A compressed model, rendered directly without decoding it: a BVH over the patches' spheres,
-  // the MLS surface of each code word built once and shared by its instances, the hits of
-  // overlapping patches blended. Code words without stored normals get PCA normals. The scene
-  // keeps what it needs; the model may be closed afterwards. `compact` keeps each code word's
-  // points in 6 bytes (8-bit positions within their grid cell, 8-bit normals: finer than the
-  // codec's own grid) instead of 24: a quarter of the memory, at about 1.5 times the time.
-  static StatusOr<std::unique_ptr<RenderScene>> from_compressed(const CompressedModel& model, float bandwidth = 1.5f,
-                                                                Progress* progress = nullptr, bool compact = true);
+  // A compressed model, rendered directly: the MLS surface of its decoded points, seamless
+  // across instances, built brick by brick as rays reach them from what the model's random-access
+  // API decodes there (with PCA normals, k = 16, when the model stores none, as a decoded cloud
+  // gets them), and kept in a cache of at most `budget_bytes`, the least recently used evicted.
+  // The image is that of the decoded model's render up to the bricks' borders, whatever the
+  // budget. The scene shares the model, which must not change while it lives.
+  static StatusOr<std::unique_ptr<RenderScene>> from_compressed(std::shared_ptr<const CompressedModel> model,
+                                                                float bandwidth = 1.5f,
+                                                                std::uint64_t budget_bytes = kDefaultMemoryBudget,
+                                                                Progress* progress = nullptr);
 
   // Renders one frame; options.bandwidth is the scene's. Fills `stats` when given, including
   // the scene's build time and memory.
@@ -94,7 +99,8 @@ class RenderScene {
 
   virtual Box3f bounds() const = 0;
   double build_seconds() const { return build_seconds_; }
-  // Bytes the scene holds: points, normals, their grids, the BVH and the patches' transforms.
+  // Bytes the scene holds after building it (a brick scene's cache comes on top, up to its
+  // budget: RenderStats::scene_bytes reports its peak).
   std::uint64_t memory_bytes() const { return memory_bytes_; }
 
  protected:
@@ -110,5 +116,27 @@ StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOpti
 
 // Writes an 8-bit RGB PNG atomically.
 Status write_png(const Image& image, const std::filesystem::path& path);
+// Reads a PNG (any bit depth and colour type, converted to 8-bit RGB; alpha dropped). The image
+// has no depth.
+StatusOr<Image> read_png(const std::filesystem::path& path);
+
+// Two renders of one scene compared (docs/METRICS.md, "Images"): a pixel is hit when it is not
+// black, the background every shading mode leaves where a ray misses and never paints a hit.
+struct ImageComparison {
+  std::uint64_t pixels = 0;
+  std::uint64_t hit_both = 0;
+  std::uint64_t hit_first_only = 0;
+  std::uint64_t hit_second_only = 0;
+  // Image PSNR over the channels of the pixels both hit, peak 255; +inf when they are equal
+  // there, 0 when no pixel is hit by both.
+  double psnr_hit = 0;
+  // Pixels hit by one image only, as a fraction of those hit by either.
+  double one_only_fraction() const {
+    const std::uint64_t either = hit_both + hit_first_only + hit_second_only;
+    return either == 0 ? 0.0 : static_cast<double>(hit_first_only + hit_second_only) / static_cast<double>(either);
+  }
+};
+// Images of different sizes are an error.
+StatusOr<ImageComparison> compare_images(const Image& first, const Image& second);
 
 }  // namespace sspc

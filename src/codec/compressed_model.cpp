@@ -259,6 +259,7 @@ StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
   PointCloud out;
   thread_local std::vector<codec::Neighbour> neighbours;
   SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options.overlap, nullptr, neighbours, out));
+  if (options.patch_of != nullptr) options.patch_of->assign(out.size(), static_cast<std::uint32_t>(k));
   return out;
 }
 
@@ -268,6 +269,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
     return invalid_argument("decode_box: the box is not finite");
   }
   PointCloud out;
+  if (options.patch_of != nullptr) options.patch_of->clear();
   if (box.isEmpty()) return out;
   const codec::ContainerHeader& h = impl_->reader.header();
   // A patch's points lie within its code word's radius (≤ codeword_radius) of its centre.
@@ -288,6 +290,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
       if (box.squaredExteriorDistance(block->centre[i]) > reach2) continue;
       SSPC_RETURN_IF_ERROR(
           impl_->decode_one(src, block->first + i, options.overlap, &box, neighbours, out));
+      if (options.patch_of != nullptr) options.patch_of->resize(out.size(), block->first + i);
     }
     progress_advance(options.progress, 1);
   }
@@ -319,6 +322,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
 
   progress_begin(options.progress, "decoding", patch_count(), "patches");
   std::vector<PointCloud> parts(p_blocks);
+  std::vector<std::vector<std::uint32_t>> part_patches(options.patch_of != nullptr ? p_blocks : 0);
   std::vector<Status> part_status(p_blocks);
   parallel_for(0, p_blocks, 1, [&](std::size_t b) {
     PreloadedSource& shared = src;  // read-only from here on
@@ -331,6 +335,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
         part_status[b] = s;
         return;
       }
+      if (!part_patches.empty()) part_patches[b].resize(parts[b].size(), block.first + i);
     }
     progress_advance(options.progress, block.count());
   });
@@ -344,6 +349,11 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
   for (PointCloud& p : parts) {
     append(out, p);
     p = PointCloud();
+  }
+  if (options.patch_of != nullptr) {
+    options.patch_of->clear();
+    options.patch_of->reserve(total);
+    for (const auto& p : part_patches) options.patch_of->insert(options.patch_of->end(), p.begin(), p.end());
   }
   return out;
 }

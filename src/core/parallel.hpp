@@ -20,6 +20,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #if defined(__SANITIZE_THREAD__)
 #define SSPC_THREAD_SANITIZER 1
@@ -94,6 +95,19 @@ void parallel_invoke(A&& a, B&& b) {
   detail::run_chunks(2, [&](std::size_t c) { c == 0 ? a() : b(); });
 #else
   tbb::parallel_invoke(a, b);
+#endif
+}
+
+// Runs f() so that the thread running it, while it waits inside a parallel loop of f's, takes
+// on only f's own tasks. Needed where a task waits for work that another task does (a cache
+// entry being built): without it, the builder's nested loop may pick up a waiting task and
+// wait for itself.
+template <typename F>
+void isolated(F&& f) {
+#ifdef SSPC_THREAD_SANITIZER
+  f();
+#else
+  tbb::this_task_arena::isolate(f);
 #endif
 }
 

@@ -38,7 +38,7 @@ constexpr double kMinCells = 64;
 }  // namespace
 
 MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
-                       float edge_support, PointStorage storage)
+                       float edge_support, PointStorage storage, std::span<const std::uint32_t> ids)
     : h_(bandwidth),
       radius_(kSupport * bandwidth),
       inv_h2_(1.0f / (bandwidth * bandwidth)),
@@ -102,10 +102,12 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   } else {
     x_.resize(n), y_.resize(n), z_.resize(n), nx_.resize(n), ny_.resize(n), nz_.resize(n);
   }
+  if (!ids.empty()) ids_.resize(n);
   const auto to_u8 = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
   const auto to_s8 = [](float v) { return static_cast<std::int8_t>(std::lround(std::clamp(v, -1.0f, 1.0f) * 127.0f)); };
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t j = next[cell_of[i]]++;
+    if (!ids.empty()) ids_[j] = ids[i];
     const Vec3f& p = points[i];
     const Vec3f& nn = normals[i];
     if (compact_) {
@@ -133,6 +135,7 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
         for (std::uint32_t k = 0; k < e - b; ++k) values[b + k] = copy[order[k] - b];
       };
       permute(qx_), permute(qy_), permute(qz_), permute(qnx_), permute(qny_), permute(qnz_);
+      if (!ids_.empty()) permute(ids_);
     }
     start16_.assign(start_.begin(), start_.end());
     start_ = {};
@@ -201,8 +204,8 @@ void MlsSurface::for_each_point(Visit&& visit) const {
 
 std::size_t MlsSurface::memory_bytes() const {
   const std::size_t points = compact_ ? 6 * size_ : 6 * size_ * sizeof(float);
-  return points + start_.size() * sizeof(std::uint32_t) + start16_.size() * sizeof(std::uint16_t) +
-         near_.size() * sizeof(std::uint64_t);
+  return points + ids_.size() * sizeof(std::uint32_t) + start_.size() * sizeof(std::uint32_t) +
+         start16_.size() * sizeof(std::uint16_t) + near_.size() * sizeof(std::uint64_t);
 }
 
 bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) const {
@@ -270,27 +273,45 @@ bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) co
   return n.squaredNorm() > 0;
 }
 
-float MlsSurface::clearance(const Vec3f& x) const {
+template <typename Visit>
+void MlsSurface::for_each_point_near(const Vec3f& x, Visit&& visit) const {
   int c[3];
   for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
   const int z_cells = compact_ ? 0 : 1;
-  float nearest2 = std::numeric_limits<float>::infinity();
   for (int iz = std::max(c[2] - z_cells, 0); iz <= std::min(c[2] + z_cells, dims_[2] - 1); ++iz) {
     for (int iy = std::max(c[1] - 1, 0); iy <= std::min(c[1] + 1, dims_[1] - 1); ++iy) {
       for (int ix = std::max(c[0] - 1, 0); ix <= std::min(c[0] + 1, dims_[0] - 1); ++ix) {
         const std::size_t cell = cell_index(ix, iy, iz);
         const Vec3f corner = cell_corner(ix, iy, iz);
         for (std::uint32_t j = cell_begin(cell); j < cell_begin(cell + 1); ++j) {
-          const Vec3f p = compact_ ? corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f),
-                                                    qz_[j] * (cell_[2] / 255.0f))
-                                   : Vec3f(x_[j], y_[j], z_[j]);
-          nearest2 = std::min(nearest2, (p - x).squaredNorm());
+          visit(j, compact_ ? corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f),
+                                             qz_[j] * (cell_[2] / 255.0f))
+                            : Vec3f(x_[j], y_[j], z_[j]));
         }
       }
     }
   }
+}
+
+float MlsSurface::clearance(const Vec3f& x) const {
+  float nearest2 = std::numeric_limits<float>::infinity();
+  for_each_point_near(x, [&](std::uint32_t, const Vec3f& p) { nearest2 = std::min(nearest2, (p - x).squaredNorm()); });
   const float edge = compact_ ? std::min(cell_[0], cell_[1]) : std::min({cell_[0], cell_[1], cell_[2]});
   return std::min(std::sqrt(nearest2), edge);
+}
+
+std::uint32_t MlsSurface::nearest_id(const Vec3f& x) const {
+  if (ids_.empty()) return 0;
+  float nearest2 = std::numeric_limits<float>::infinity();
+  std::uint32_t id = 0;
+  for_each_point_near(x, [&](std::uint32_t j, const Vec3f& p) {
+    const float d2 = (p - x).squaredNorm();
+    if (d2 < nearest2) {
+      nearest2 = d2;
+      id = ids_[j];
+    }
+  });
+  return id;
 }
 
 std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, float t_min,

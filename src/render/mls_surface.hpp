@@ -53,8 +53,11 @@ class MlsSurface {
   // Copies `points` and `normals` (unit, same length). `bandwidth` is h > 0. With
   // `edge_support` > 0 the surface ends where its support Σ w falls below that fraction of the
   // median support at the points, rather than where the last point leaves the support radius.
+  // `ids`, when not empty, holds an id per point (the compressed scene's code word of each
+  // point), which nearest_id() returns.
   MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
-             float edge_support = 0, PointStorage storage = PointStorage::kFloat);
+             float edge_support = 0, PointStorage storage = PointStorage::kFloat,
+             std::span<const std::uint32_t> ids = {});
 
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
   std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
@@ -68,6 +71,10 @@ class MlsSurface {
   // lie the cells not searched. Where it exceeds r, the surface is undefined for that much
   // further along any ray, which the march then skips in one step.
   float clearance(const Vec3f& x) const;
+
+  // The id of the point nearest to x among those in the cells next to x's; 0 without ids or
+  // points there.
+  std::uint32_t nearest_id(const Vec3f& x) const;
 
   float bandwidth() const { return h_; }
   float support_radius() const { return radius_; }
@@ -98,6 +105,10 @@ class MlsSurface {
   // Calls visit(j, position) for every point, cell by cell.
   template <typename Visit>
   void for_each_point(Visit&& visit) const;
+  // Calls visit(j, position) for every point in the cells next to x's (3 × 3 × 3, or 3 × 3
+  // columns when compact).
+  template <typename Visit>
+  void for_each_point_near(const Vec3f& x, Visit&& visit) const;
 
   static constexpr std::size_t kTable = 256;
 
@@ -120,6 +131,7 @@ class MlsSurface {
   std::vector<float> x_, y_, z_, nx_, ny_, nz_;          // kFloat: points and normals, cell by cell
   std::vector<std::uint8_t> qx_, qy_, qz_;               // kCompact: 255ths of the cell
   std::vector<std::int8_t> qnx_, qny_, qnz_;             // kCompact: 127ths
+  std::vector<std::uint32_t> ids_;                       // per point, cell by cell, when given
 };
 
 }  // namespace sspc::render

@@ -1,6 +1,11 @@
-// 8-bit RGB PNG through libpng, into memory and then an atomic file write.
+// PNG through libpng: 8-bit RGB written into memory and then an atomic file write; any PNG read
+// back as 8-bit RGB (what `sspc render --compare` compares); and the comparison of two images.
 #include <png.h>
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
 #include <string>
 
 #include "core/atomic_file.hpp"
@@ -16,6 +21,11 @@ void append(png_structp png, png_bytep data, png_size_t length) {
 }
 void flush(png_structp) {}
 
+// libpng's errors become the Status of the call (through its longjmp), and its warnings are of
+// no use to a caller: neither goes to stderr.
+[[noreturn]] void on_error(png_structp png, png_const_charp) { png_longjmp(png, 1); }
+void on_warning(png_structp, png_const_charp) {}
+
 }  // namespace
 
 Status write_png(const Image& image, const std::filesystem::path& path) {
@@ -24,7 +34,7 @@ Status write_png(const Image& image, const std::filesystem::path& path) {
     return invalid_argument("write_png: the image's size and pixels disagree");
   }
   std::string bytes;
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, on_error, on_warning);
   if (png == nullptr) return resource_exhausted("libpng: cannot create a write struct");
   png_infop info = png_create_info_struct(png);
   if (info == nullptr || setjmp(png_jmpbuf(png))) {
@@ -41,6 +51,89 @@ Status write_png(const Image& image, const std::filesystem::path& path) {
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   return write_file_atomically(path, std::as_bytes(std::span<const char>(bytes.data(), bytes.size())));
+}
+
+StatusOr<Image> read_png(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), std::fclose);
+  if (file == nullptr) return not_found(name + ": cannot open");
+  png_byte signature[8];
+  if (std::fread(signature, 1, 8, file.get()) != 8 || png_sig_cmp(signature, 0, 8) != 0) {
+    return invalid_argument(name + ": not a PNG file");
+  }
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, on_error, on_warning);
+  if (png == nullptr) return resource_exhausted("libpng: cannot create a read struct");
+  png_infop info = png_create_info_struct(png);
+  Image image;
+  // libpng reports errors by longjmp: nothing with a destructor may be created after setjmp.
+  std::vector<png_bytep> rows;
+  if (info == nullptr || setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return invalid_argument(name + ": a corrupt or truncated PNG");
+  }
+  png_init_io(png, file.get());
+  png_set_sig_bytes(png, 8);
+  png_read_info(png, info);
+  const png_uint_32 width = png_get_image_width(png, info), height = png_get_image_height(png, info);
+  if (width < 1 || height < 1 || width > 65536 || height > 65536) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return invalid_argument(name + ": the PNG's size is outside 1..65536 pixels a side");
+  }
+  // Whatever it stores, as 8-bit RGB.
+  png_set_strip_16(png);
+  png_set_strip_alpha(png);
+  png_set_packing(png);
+  png_set_palette_to_rgb(png);
+  png_set_expand_gray_1_2_4_to_8(png);
+  png_set_gray_to_rgb(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  if (png_get_rowbytes(png, info) != static_cast<png_size_t>(width) * 3) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return invalid_argument(name + ": a PNG layout that does not convert to 8-bit RGB");
+  }
+  image.width = static_cast<int>(width);
+  image.height = static_cast<int>(height);
+  image.rgb.resize(static_cast<std::size_t>(width) * height * 3);
+  rows.resize(height);
+  for (png_uint_32 y = 0; y < height; ++y) rows[y] = image.rgb.data() + static_cast<std::size_t>(y) * width * 3;
+  png_read_image(png, rows.data());
+  png_read_end(png, nullptr);
+  png_destroy_read_struct(&png, &info, nullptr);
+  return image;
+}
+
+StatusOr<ImageComparison> compare_images(const Image& first, const Image& second) {
+  const auto pixels = static_cast<std::size_t>(first.width) * static_cast<std::size_t>(first.height);
+  if (first.width != second.width || first.height != second.height || first.rgb.size() != 3 * pixels ||
+      second.rgb.size() != 3 * pixels) {
+    return invalid_argument("the images differ in size (" + std::to_string(first.width) + "x" +
+                            std::to_string(first.height) + " and " + std::to_string(second.width) + "x" +
+                            std::to_string(second.height) + ")");
+  }
+  ImageComparison c;
+  c.pixels = pixels;
+  double squared = 0;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const std::uint8_t* a = &first.rgb[3 * i];
+    const std::uint8_t* b = &second.rgb[3 * i];
+    const bool hit_a = (a[0] | a[1] | a[2]) != 0, hit_b = (b[0] | b[1] | b[2]) != 0;
+    if (hit_a && hit_b) {
+      ++c.hit_both;
+      for (int k = 0; k < 3; ++k) {
+        const double e = static_cast<double>(a[k]) - static_cast<double>(b[k]);
+        squared += e * e;
+      }
+    } else if (hit_a) {
+      ++c.hit_first_only;
+    } else if (hit_b) {
+      ++c.hit_second_only;
+    }
+  }
+  if (c.hit_both == 0) return c;
+  const double mse = squared / (3.0 * static_cast<double>(c.hit_both));
+  c.psnr_hit = mse > 0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : std::numeric_limits<double>::infinity();
+  return c;
 }
 
 }  // namespace sspc

@@ -189,5 +189,39 @@ TEST(CliReliability, AFailedSequenceLeavesNoFrames) {
   EXPECT_EQ(test::count_files(out), 0u);
 }
 
+// The user's check of a compressed render (issue: direct render against the render of the
+// decode): `render --compare` reads the other PNG and reports the image PSNR over the pixels both
+// hit and the pixels hit in one only; in JSON too. Against itself: +inf (null) and none.
+TEST(CliReliability, RenderCompareReportsImagePsnr) {
+  test::TempDir dir;
+  const std::string model = (dir.path() / "bunny.sspc").string();
+  const std::string decoded = (dir.path() / "decoded.ply").string();
+  const std::string a = (dir.path() / "direct.png").string(), b = (dir.path() / "decoded.png").string();
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model + " --quiet", kLimit).exit_code, 0);
+  ASSERT_EQ(sspc(dir, "decode " + model + " " + decoded + " --quiet", kLimit).exit_code, 0);
+  ASSERT_EQ(sspc(dir, "render " + decoded + " -o " + b + " --size 64x64", kLimit).exit_code, 0);
+  const CliRun run = sspc(dir, "render " + model + " -o " + a + " --size 64x64 --compare " + b + " --json", kLimit);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto number = [&](const std::string& key) {
+    const auto at = run.out.find("\"" + key + "\":");
+    EXPECT_NE(at, std::string::npos) << key << " in " << run.out;
+    return at == std::string::npos ? -1.0 : std::atof(run.out.c_str() + at + key.size() + 3);
+  };
+  EXPECT_GE(number("psnr_hit_db"), 35.0);
+  EXPECT_GT(number("hit_both"), 500.0);
+  EXPECT_LE(number("hit_one_only_fraction"), 0.002);
+  const CliRun self = sspc(dir, "render " + decoded + " -o " + (dir.path() / "again.png").string() +
+                                    " --size 64x64 --compare " + b, kLimit);
+  ASSERT_EQ(self.exit_code, 0) << self.err;
+  EXPECT_NE(self.out.find("image PSNR inf dB"), std::string::npos) << self.out;
+  // A PNG of another size, and a file that is no PNG, fail naming the file.
+  const CliRun size = sspc(dir, "render " + model + " -o " + a + " -f --size 32x32 --compare " + b, kLimit);
+  EXPECT_EQ(size.exit_code, 1);
+  EXPECT_NE(size.err.find("decoded.png: 64x64 pixels"), std::string::npos) << size.err;
+  const CliRun text = sspc(dir, "render " + model + " -o " + a + " -f --size 64x64 --compare " + decoded, kLimit);
+  EXPECT_EQ(text.exit_code, 1);
+  EXPECT_NE(text.err.find("decoded.ply: not a PNG"), std::string::npos) << text.err;
+}
+
 }  // namespace
 }  // namespace sspc

@@ -121,6 +121,37 @@ TEST(DecoderTest, DecodeBoxIsDecodeAllFilteredByTheBox) {
             edge->positions.end());
 }
 
+// DecodeOptions::patch_of names each point's patch: the patch decode's runs in decode_all, and
+// the same patches for a box's points as the whole decode gives them.
+TEST(DecoderTest, PatchOfNamesEachPointsPatch) {
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
+  std::vector<std::uint32_t> all_of;
+  DecodeOptions options;
+  options.patch_of = &all_of;
+  auto all = f.compressed.decode_all(options);
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ(all_of.size(), all->size());
+  for (std::size_t k = 0; k < f.compressed.patch_count(); ++k) {
+    for (std::size_t i = f.offsets[k]; i < f.offsets[k + 1]; ++i) ASSERT_EQ(all_of[i], k) << i;
+  }
+  std::vector<std::uint32_t> one;
+  options.patch_of = &one;
+  auto patch = f.compressed.decode_patch(3, options);
+  ASSERT_TRUE(patch.ok());
+  EXPECT_EQ(one, std::vector<std::uint32_t>(patch->size(), 3u));
+  const Box3f box(Vec3f(5, 5, -1), Vec3f(20, 15, 1));
+  std::vector<std::uint32_t> box_of;
+  options.patch_of = &box_of;
+  auto inside = f.compressed.decode_box(box, options);
+  ASSERT_TRUE(inside.ok());
+  std::vector<std::uint32_t> expected;
+  for (std::size_t i = 0; i < f.all.size(); ++i) {
+    if (box.contains(f.all.positions[i])) expected.push_back(all_of[i]);
+  }
+  ASSERT_GT(expected.size(), 20u);
+  EXPECT_EQ(box_of, expected);
+}
+
 TEST(DecoderTest, OverlapModeKeepsEveryInstanceWhole) {
   Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   std::size_t expected = 0;

@@ -1,0 +1,85 @@
+// A scene whose MLS surface is held in bricks of a uniform grid, built when a ray first needs
+// them and kept in a cache bounded by a memory budget (the least recently used evicted): what
+// both the paged uncompressed scene and the compressed scene are (docs/ARCHITECTURE.md,
+// "Rendering").
+//
+// Each brick's surface is built from the points within the support radius of its box, so the
+// surface inside a brick needs no other brick and is the MLS surface of the whole cloud there.
+// Rays walk the bricks front to back (3D DDA) and stop at the first brick with a hit. A brick is
+// built once however many threads ask for it at once (the others wait for it), always from the
+// same points, so an image does not depend on what the cache held or on the thread count. The
+// cache keeps at least 8 bricks whatever the budget, so that a budget smaller than a few rows'
+// bricks costs rebuilding them row by row rather than ray by ray.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <future>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+#include "render/mls_surface.hpp"
+#include "sspc/render.hpp"
+
+namespace sspc::render {
+
+class BrickScene : public RenderScene {
+ public:
+  using SurfacePtr = std::shared_ptr<const MlsSurface>;
+
+  StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override;
+  Box3f bounds() const override { return bounds_; }
+
+ protected:
+  // Lays the grid over `bounds` (which become bounds() unless set before) with bricks of edge
+  // `edge`. Returns an error when the grid would have more than 10⁷ bricks.
+  Status layout(const Box3f& bounds, float edge, std::uint64_t budget_bytes);
+
+  std::size_t brick_count() const { return occupied_.size(); }
+  std::size_t brick_index(int x, int y, int z) const {
+    return static_cast<std::size_t>(x) +
+           static_cast<std::size_t>(dims_[0]) *
+               (static_cast<std::size_t>(y) + static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z));
+  }
+  int brick_coordinate(float v, int axis) const;
+  // The brick's box (without the halo of the support radius).
+  Box3f brick_box(std::size_t b) const;
+  // Marks brick b as holding surface; rays pass unoccupied bricks without building them.
+  void set_occupied(std::size_t b) { occupied_[b] = true; }
+
+  // Builds brick b's surface: called at most once at a time per brick, from any thread.
+  virtual StatusOr<SurfacePtr> load(std::size_t b) const = 0;
+  // What a frame reports as read for its bricks (a paged scene's file bytes); 0 by default.
+  virtual std::uint64_t bytes_loaded() const { return 0; }
+
+  float edge_ = 0;
+  Box3f bounds_;
+
+ private:
+  // The brick's surface, from the cache or built by load().
+  StatusOr<SurfacePtr> surface(std::size_t b) const;
+
+  Vec3f origin_;
+  int dims_[3] = {1, 1, 1};
+  std::vector<bool> occupied_;
+  std::uint64_t budget_ = 0;
+
+  // The cache: bricks being built or built, by brick, the most recently used at the front of
+  // `lru_` (only built ones are in it).
+  struct Entry {
+    std::shared_future<StatusOr<SurfacePtr>> surface;
+    std::list<std::size_t>::iterator lru;
+    bool built = false;
+  };
+  mutable std::mutex mutex_;
+  mutable std::list<std::size_t> lru_;
+  mutable std::unordered_map<std::size_t, Entry> cache_;
+  mutable std::uint64_t cached_bytes_ = 0;
+  mutable std::uint64_t peak_cached_bytes_ = 0;
+  mutable std::atomic<std::uint64_t> loads_{0};
+};
+
+}  // namespace sspc::render
