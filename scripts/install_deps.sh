@@ -4,6 +4,7 @@
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflann-dev libtbb-dev
           libzstd-dev libcli11-dev libpng-dev libgtest-dev libbenchmark-dev
+          python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package, python/
           libembree-dev)  # optional: only bench/bvh_bench.cpp (SphereBvh against Embree) uses it
 missing=()
 for p in "${packages[@]}"; do
