@@ -1,6 +1,8 @@
 #include "conversions.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -52,11 +54,32 @@ py::array checked_rows(py::handle value, std::string_view what, const char* kind
 
 std::vector<Vec3f> vec3_rows(py::handle array, std::string_view what) {
   py::array a = checked_rows(array, what, "fiu", "an array of real numbers");
-  auto f = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
-  if (!f) throw py::error_already_set();
-  const auto n = static_cast<std::size_t>(f.shape(0));
-  std::vector<Vec3f> rows(n);
-  if (n > 0) std::memcpy(static_cast<void*>(rows.data()), f.data(), n * sizeof(Vec3f));
+  std::vector<Vec3f> rows(static_cast<std::size_t>(a.shape(0)));
+  if (rows.empty()) return rows;
+  if (a.dtype().is(py::dtype::of<float>())) {
+    auto f = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (!f) throw py::error_already_set();
+    std::memcpy(static_cast<void*>(rows.data()), f.data(), rows.size() * sizeof(Vec3f));
+    return rows;
+  }
+  // Other dtypes through double, so that a value float32 cannot hold is named here rather than
+  // cast to an infinity with numpy's overflow warning.
+  auto d = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!d) throw py::error_already_set();
+  const double* in = d.data();
+  constexpr double kMax = std::numeric_limits<float>::max();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double x = in[3 * i + c];
+      if (std::isfinite(x) && std::abs(x) > kMax) {
+        char value[32];
+        std::snprintf(value, sizeof value, "%.9g", x);
+        throw py::value_error(std::string(what) + ": row " + std::to_string(i) + " holds " + value +
+                              ", beyond float32's range");
+      }
+      rows[i][static_cast<Eigen::Index>(c)] = static_cast<float>(x);
+    }
+  }
   return rows;
 }
 
