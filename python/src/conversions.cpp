@@ -137,6 +137,12 @@ PointCloud cloud_from(py::handle cloud_or_positions, std::string_view what) {
   return cloud;
 }
 
+const PointCloud& cloud_ref(py::handle cloud_or_positions, std::string_view what, PointCloud& storage) {
+  if (py::isinstance<PointCloud>(cloud_or_positions)) return cloud_or_positions.cast<const PointCloud&>();
+  storage.positions = vec3_rows(cloud_or_positions, what);
+  return storage;
+}
+
 ThreadLimit::ThreadLimit(int threads) {
   if (threads < 0) throw py::value_error("threads must be 0 (all cores) or positive, got " + std::to_string(threads));
   if (threads > 0) control_.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));

@@ -80,6 +80,9 @@ py::array owning_array(Vector&& values, std::vector<py::ssize_t> shape) {
 // The cloud behind a PointCloud object, or a cloud of positions only built from an (N, 3)
 // array (one copy).
 PointCloud cloud_from(py::handle cloud_or_positions, std::string_view what);
+// The same without a copy when the argument is a PointCloud (which Python code cannot modify):
+// a reference to it, or to `storage` filled from positions. The caller keeps the argument alive.
+const PointCloud& cloud_ref(py::handle cloud_or_positions, std::string_view what, PointCloud& storage);
 
 // --- threads and progress ----------------------------------------------------------------------
 

@@ -41,29 +41,35 @@ std::uint64_t compressed_size(const py::object& compressed) {
 // so they are compared as they are.
 py::dict evaluate_clouds(const py::object& original, const py::object& decoded, std::optional<double> peak,
                          bool estimate_ref_normals, const py::object& compressed, int threads) {
-  PointCloud ref = cloud_from(original, "original");
-  PointCloud test = cloud_from(decoded, "decoded");
-  check(ref.validate());
-  check(test.validate());
+  // The clouds as given, copied only when normals must be added to REF or taken from TEST.
+  PointCloud ref_storage, test_storage;
+  const PointCloud* ref = &cloud_ref(original, "original", ref_storage);
+  const PointCloud* test = &cloud_ref(decoded, "decoded", test_storage);
+  check(ref->validate());
+  check(test->validate());
   ThreadLimit limit(threads);
-  const bool ref_had_normals = ref.has_normals();
+  const bool ref_had_normals = ref->has_normals();
   if (!ref_had_normals && estimate_ref_normals) {
+    if (ref != &ref_storage) ref = &(ref_storage = *ref);
     NormalOptions options;
     options.mode = NormalMode::kEstimate;
-    check(without_gil([&] { return ensure_normals(ref, options); }));
+    check(without_gil([&] { return ensure_normals(ref_storage, options); }));
   }
   // Normal errors compare the clouds' own normals, never estimated ones.
-  if (!(ref_had_normals && test.has_normals())) test.normals.clear();
+  if (test->has_normals() && !ref_had_normals) {
+    if (test != &test_storage) test = &(test_storage = *test);
+    test_storage.normals.clear();
+  }
   EvalOptions options;
   options.peak = peak;
-  const EvalReport r = value_or_raise(without_gil([&] { return evaluate(ref, test, options); }));
+  const EvalReport r = value_or_raise(without_gil([&] { return evaluate(*ref, *test, options); }));
 
   py::dict d;
   d["ref_points"] = r.ref_points;
   d["test_points"] = r.test_points;
   d["ref_diagonal"] = r.ref_diagonal;
   d["peak"] = r.peak;
-  d["ref_normals"] = ref_had_normals ? "file" : (ref.has_normals() ? "estimated" : "none");
+  d["ref_normals"] = ref_had_normals ? "file" : (ref->has_normals() ? "estimated" : "none");
   d["ref_to_test"] = direction(r.ref_to_test);
   d["test_to_ref"] = direction(r.test_to_ref);
   d["rms"] = r.rms_max;

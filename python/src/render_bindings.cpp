@@ -41,14 +41,17 @@ class Scene {
       const auto& model = source.cast<const CompressedModel&>();
       scene = without_gil([&] { return RenderScene::from_compressed(model, bandwidth, reporter.get(), compact); });
     } else {
-      PointCloud cloud = cloud_from(source, "source");
-      check(cloud.validate());
-      // The MLS surface needs unit normals: the cloud's own, else estimated, like `sspc render`.
+      PointCloud copy;
+      const PointCloud* cloud = &cloud_ref(source, "source", copy);
+      check(cloud->validate());
+      // The MLS surface needs unit normals: the cloud's own, else estimated (on a copy), like
+      // `sspc render`.
       NormalOptions normals;
       normals.progress = reporter.get();
+      if (!cloud->has_normals() && cloud != &copy) cloud = &(copy = *cloud);
       scene = without_gil([&]() -> StatusOr<std::unique_ptr<RenderScene>> {
-        SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normals));
-        return RenderScene::from_point_cloud(cloud, bandwidth, reporter.get());
+        if (!cloud->has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(copy, normals));
+        return RenderScene::from_point_cloud(*cloud, bandwidth, reporter.get());
       });
     }
     reporter.rethrow();

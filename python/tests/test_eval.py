@@ -38,7 +38,11 @@ def test_decoded_model_psnr_and_bits_per_point(bunny, bunny_model, bunny_model_p
 
 def test_reference_without_normals(bumps):
     bare = sspc.PointCloud(bumps.positions)
-    assert sspc.eval(bare, bumps)["ref_normals"] == "estimated"
+    report = sspc.eval(bare, bumps)
+    assert report["ref_normals"] == "estimated" and "d2_psnr" in report
+    assert "normal_angle_mean_deg" not in report  # estimated normals are not compared
+    # Neither argument changed: the normals were added to and taken from copies.
+    assert bare.normals is None and bumps.normals is not None
     no_d2 = sspc.eval(bare.positions, bumps, estimate_normals=False)
     assert no_d2["ref_normals"] == "none" and "d2_psnr" not in no_d2
 

@@ -40,6 +40,15 @@ def test_a_point_cloud_and_its_model_look_alike(bunny, bunny_model):
     assert np.mean(mask_a == mask_b) > 0.95
 
 
+def test_a_cloud_without_normals_gets_estimated_ones(bumps):
+    bare = sspc.PointCloud(bumps.positions)
+    image = sspc.render(bare, width=32, height=32, eye=(0, -1, 1), target=(0, 0, 0))
+    assert 0 < 1 - background_fraction(image) < 1
+    assert bare.normals is None  # estimated on a copy
+    np.testing.assert_array_equal(sspc.render(bumps.positions, width=32, height=32, eye=(0, -1, 1),
+                                              target=(0, 0, 0)).shape, (32, 32, 3))
+
+
 def test_a_scene_renders_from_many_cameras(bunny_model):
     scene = sspc.Scene(bunny_model, storage="float")
     (lo, hi) = scene.bounds()
