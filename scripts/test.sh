@@ -22,11 +22,12 @@ stage_done "release tests"
 # compiles faster than -O2 -g.
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer build"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSSPC_WERROR=ON \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSSPC_SANITIZE=address,undefined -DSSPC_BUILD_BENCH=OFF
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSSPC_SANITIZE=address,undefined -DSSPC_BUILD_BENCH=OFF \
+  -DSSPC_BUILD_PYTHON=OFF
 cmake --build build-asan -j "$jobs"
 stage_done "ASan+UBSan build"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^package\.'
+  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^(package|python)\.'
 stage_done "ASan+UBSan tests"
 
 # Only the test executables of the parallel stages are built (at -O1 with line tables only,
@@ -36,7 +37,7 @@ stage_done "ASan+UBSan tests"
 echo "== ThreadSanitizer build (parallel stages)"
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSSPC_WERROR=ON \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSSPC_SANITIZE=thread \
-  -DSSPC_BUILD_BENCH=OFF -DSSPC_BUILD_APPS=OFF
+  -DSSPC_BUILD_BENCH=OFF -DSSPC_BUILD_APPS=OFF -DSSPC_BUILD_PYTHON=OFF
 cmake --build build-tsan -j "$jobs" --target sspc_core_tests sspc_geometry_tests sspc_codec_tests \
   sspc_container_tests sspc_eval_tests sspc_render_tests
 stage_done "TSan build"

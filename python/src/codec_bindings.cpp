@@ -1,0 +1,326 @@
+// sspc.encode and sspc.CompressedModel: the codec of the paper's §4 and the random access of the
+// .sspc format (docs/FORMAT.md).
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+#include "conversions.hpp"
+#include "sspc/compressed_model.hpp"
+#include "sspc/encoder.hpp"
+
+namespace sspc::python {
+namespace {
+
+NormalMode normal_mode(const std::string& name) {
+  if (name == "auto") return NormalMode::kAuto;
+  if (name == "keep") return NormalMode::kKeep;
+  if (name == "estimate") return NormalMode::kEstimate;
+  throw py::value_error("normals must be 'auto', 'keep' or 'estimate', got '" + name + "'");
+}
+
+// The keys of `sspc encode --json`, less the input and the reading time.
+py::dict encode_stats(const EncodeStats& s, int level, double seconds) {
+  py::dict d;
+  d["level"] = level;
+  d["points"] = s.points;
+  d["patches"] = s.patches;
+  d["codewords"] = s.codewords;
+  d["codebook_ratio"] = s.codebook_ratio;
+  d["codeword_points"] = s.codeword_points;
+  d["untrimmed_codeword_points"] = s.untrimmed_codeword_points;
+  d["position_bits"] = s.position_bits;
+  d["position_step"] = s.position_step;
+  d["spacing"] = s.spacing;
+  d["patch_radius"] = s.patch_radius;
+  d["coverage_radius"] = s.coverage_radius;
+  d["max_coverage_distance"] = s.max_coverage_distance;
+  d["covered"] = s.max_coverage_distance <= s.coverage_radius;
+  d["candidates_tested"] = s.candidates_tested;
+  d["file_bytes"] = s.file_bytes;
+  d["codebook_bytes"] = s.codebook_bytes;
+  d["patch_bytes"] = s.patch_bytes;
+  d["bits_per_point"] = s.bits_per_point;
+  d["normals_seconds"] = s.seconds_normals;
+  d["centres_seconds"] = s.seconds_centres;
+  d["codebook_seconds"] = s.seconds_codebook;
+  d["descriptors_seconds"] = s.seconds_descriptors;
+  d["clustering_seconds"] = s.seconds_codebook - s.seconds_descriptors;
+  d["write_seconds"] = s.seconds_writing;
+  d["seconds"] = seconds;
+  d["points_per_second"] = seconds > 0 ? static_cast<double>(s.points) / seconds : 0.0;
+  return d;
+}
+
+// The library writes .sspc files only; bytes are encoded to a private temporary file, read back
+// and the file removed.
+class ScratchFile {
+ public:
+  ScratchFile() {
+    static std::atomic<unsigned> counter{0};
+    path_ = std::filesystem::temp_directory_path() /
+            ("sspc-python-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".sspc");
+  }
+  ~ScratchFile() {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  ScratchFile(const ScratchFile&) = delete;
+  ScratchFile& operator=(const ScratchFile&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+StatusOr<std::string> read_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (!in || !bytes) return io_error(path.string() + ": cannot read back the encoded file");
+  return std::move(bytes).str();
+}
+
+py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
+                        int level, std::optional<int> patch_points, std::optional<float> epsilon,
+                        std::optional<float> tau, std::optional<int> position_bits, bool store_normals,
+                        bool full_spheres, const std::string& normals, const py::object& viewpoint,
+                        std::uint64_t seed, int threads, const py::object& progress) {
+  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
+  check(cloud.validate());
+  EncodeOptions options;
+  options.level = level;
+  options.patch_points = patch_points;
+  options.epsilon = epsilon;
+  options.tau = tau;
+  options.position_bits = position_bits;
+  options.store_normals = store_normals;
+  options.full_spheres = full_spheres;
+  options.normals.mode = normal_mode(normals);
+  if (!viewpoint.is_none()) options.normals.viewpoint = vec3(viewpoint, "viewpoint");
+  options.seed = seed;
+  CallbackProgress reporter(progress);
+  options.progress = reporter.get();
+  ThreadLimit limit(threads);
+
+  std::optional<ScratchFile> scratch;
+  if (!path) scratch.emplace();
+  const std::filesystem::path& output = path ? *path : scratch->path();
+  const auto start = std::chrono::steady_clock::now();
+  auto stats = without_gil([&] { return encode(std::move(cloud), output, options); });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  reporter.rethrow();
+  const EncodeStats s = value_or_raise(std::move(stats));
+  if (path) return encode_stats(s, level, seconds);
+  const std::string bytes = value_or_raise(without_gil([&] { return read_bytes(output); }));
+  return py::bytes(bytes);
+}
+
+py::dict model_info(const CompressedModel& model) {
+  const ModelInfo m = model.info();
+  py::dict d;
+  d["format"] = "sspc";
+  d["version"] = m.version;
+  d["file_bytes"] = m.file_bytes;
+  d["normals"] = m.has_normals;
+  d["colors"] = m.has_colors;
+  d["source_points"] = m.source_points;
+  d["patches"] = m.patches;
+  d["codewords"] = m.codewords;
+  d["codeword_points"] = m.codeword_points;
+  d["overlap_points"] = m.overlap_points;
+  d["codebook_ratio"] = m.codebook_ratio;
+  d["bits_per_point"] = m.bits_per_point;
+  d["patch_radius"] = m.patch_radius;
+  d["coverage_radius"] = m.coverage_radius;
+  d["codeword_radius"] = m.codeword_radius;
+  d["spacing"] = m.spacing;
+  d["bbox_min"] = py::make_tuple(m.bounds.min().x(), m.bounds.min().y(), m.bounds.min().z());
+  d["bbox_max"] = py::make_tuple(m.bounds.max().x(), m.bounds.max().y(), m.bounds.max().z());
+  d["position_bits"] = m.position_bits;
+  d["normal_bits"] = m.normal_bits;
+  d["rotation_bits"] = m.rotation_bits;
+  d["translation_step"] = m.translation_step;
+  d["patches_per_block"] = m.patches_per_block;
+  d["codewords_per_block"] = m.codewords_per_block;
+  py::list sections;
+  py::dict header;
+  header["name"] = "header";
+  header["offset"] = 0;
+  header["bytes"] = m.header_bytes;
+  sections.append(header);
+  for (const SectionInfo& s : m.sections) {
+    py::dict section;
+    section["name"] = s.name;
+    section["offset"] = s.offset;
+    section["bytes"] = s.bytes;
+    section["raw_bytes"] = s.raw_bytes;
+    section["blocks"] = s.blocks;
+    sections.append(section);
+  }
+  d["sections"] = sections;
+  return d;
+}
+
+std::size_t checked_index(py::ssize_t i, std::size_t count, const char* what) {
+  if (i < 0 || static_cast<std::size_t>(i) >= count) {
+    throw py::index_error(std::string(what) + " " + std::to_string(i) + " out of range: the model has " +
+                          std::to_string(count));
+  }
+  return static_cast<std::size_t>(i);
+}
+
+py::dict patch_record(const CompressedModel& model, py::ssize_t k) {
+  const std::size_t index = checked_index(k, model.patch_count(), "patch");
+  const PatchRecord p = value_or_raise(model.patch(index));
+  py::array_t<float> rotation({py::ssize_t{3}, py::ssize_t{3}});
+  auto r = rotation.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < 3; ++i) {
+    for (py::ssize_t j = 0; j < 3; ++j) r(i, j) = p.rotation(i, j);
+  }
+  py::array_t<float> translation(py::ssize_t{3});
+  for (py::ssize_t i = 0; i < 3; ++i) translation.mutable_at(i) = p.translation(i);
+  py::dict d;
+  d["codeword"] = p.codeword;
+  d["rotation"] = rotation;
+  d["translation"] = translation;
+  return d;
+}
+
+py::dict codeword(const CompressedModel& model, py::ssize_t c) {
+  const std::size_t index = checked_index(c, model.codeword_count(), "code word");
+  CodeWordData data = value_or_raise(without_gil([&] { return model.codeword(index); }));
+  py::dict d;
+  d["points"] = py::cast(std::move(data.points));
+  d["radius"] = data.radius;
+  return d;
+}
+
+CompressedModel from_buffer(const py::buffer& buffer) {
+  const py::buffer_info info = buffer.request();
+  std::string bytes(static_cast<const char*>(info.ptr), static_cast<std::size_t>(info.size * info.itemsize));
+  return value_or_raise(without_gil([&] { return CompressedModel::from_bytes(std::move(bytes)); }));
+}
+
+DecodeOptions decode_options(bool overlap) {
+  DecodeOptions options;
+  options.overlap = overlap;
+  return options;
+}
+
+void bind_compressed_model(py::module_& m) {
+  py::class_<CompressedModel>(m, "CompressedModel", R"doc(
+An .sspc file opened for random access: one patch, one code word, one box or the whole model,
+decoded without reading more of the file than the answer needs (the file is memory-mapped).
+
+Build one with CompressedModel.open(path) or CompressedModel.from_bytes(data). Every method may
+be called from several Python threads at once; each releases the GIL while it decodes. A corrupt
+file raises RuntimeError ("corrupt: ...") naming the section, block and byte offset.)doc")
+      .def_static(
+          "open",
+          [](const std::filesystem::path& path) {
+            return value_or_raise(without_gil([&] { return CompressedModel::open(path); }));
+          },
+          py::arg("path"),
+          "Maps the file and checks its header and seek tables (not the blocks: see verify()). Raises "
+          "FileNotFoundError for a missing file.")
+      .def_static("from_bytes", &from_buffer, py::arg("data"),
+                  "The same over bytes in memory (any buffer: bytes, bytearray, memoryview), copied once "
+                  "into the model.")
+      .def_property_readonly("patch_count", &CompressedModel::patch_count, "The number of patches.")
+      .def_property_readonly("codeword_count", &CompressedModel::codeword_count, "The number of code words.")
+      .def("info", &model_info, R"doc(
+The model's header as `sspc info --json` prints it: a dict with format, version, file_bytes,
+normals, colors, source_points, patches, codewords, codeword_points, overlap_points,
+codebook_ratio, bits_per_point, patch_radius, coverage_radius, codeword_radius, spacing, bbox_min,
+bbox_max, position_bits, normal_bits, rotation_bits, translation_step, patches_per_block,
+codewords_per_block and sections. The encoder's level is not stored in the file.)doc")
+      .def("patch", &patch_record, py::arg("k"), R"doc(
+Patch k as stored: a dict with its code word's index ("codeword"), and the transform
+world_from_codeword x -> rotation @ x + translation ((3, 3) and (3,) float32), the translation
+being the patch's region centre. Raises IndexError out of range.)doc")
+      .def("codeword", &codeword, py::arg("c"),
+           "Code word c, decoded in its own frame: a dict with \"points\" (a PointCloud) and \"radius\" (the "
+           "instances' bounding sphere). Raises IndexError out of range.")
+      .def(
+          "decode_patch",
+          [](const CompressedModel& model, py::ssize_t k, bool overlap) {
+            const std::size_t index = checked_index(k, model.patch_count(), "patch");
+            return value_or_raise(without_gil([&] { return model.decode_patch(index, decode_options(overlap)); }));
+          },
+          py::arg("k"), py::kw_only(), py::arg("overlap") = false,
+          "Patch k's points in the world: exactly its part of decode_all(), in the same order. overlap=True: "
+          "every stored point of the instance, not only those of the patch's own region.")
+      .def(
+          "decode_box",
+          [](const CompressedModel& model, const py::object& lo, const py::object& hi, bool overlap, int threads) {
+            const Box3f box(vec3(lo, "lo"), vec3(hi, "hi"));
+            ThreadLimit limit(threads);
+            return value_or_raise(without_gil([&] { return model.decode_box(box, decode_options(overlap)); }));
+          },
+          py::arg("lo"), py::arg("hi"), py::kw_only(), py::arg("overlap") = false, py::arg("threads") = 0,
+          "Exactly the points of decode_all() inside the box [lo, hi] (inclusive; lo and hi are (x, y, z)), in the "
+          "same order, decoding only the patches near it.")
+      .def(
+          "decode_all",
+          [](const CompressedModel& model, bool overlap, int threads, const py::object& progress) {
+            DecodeOptions options = decode_options(overlap);
+            CallbackProgress reporter(progress);
+            options.progress = reporter.get();
+            ThreadLimit limit(threads);
+            auto cloud = without_gil([&] { return model.decode_all(options); });
+            reporter.rethrow();
+            return value_or_raise(std::move(cloud));
+          },
+          py::kw_only(), py::arg("overlap") = false, py::arg("threads") = 0, py::arg("progress") = py::none(),
+          "The whole model as a PointCloud, patches in file order; parallel and deterministic. The decoded "
+          "buffers become the PointCloud's without a copy. progress: see encode().")
+      .def(
+          "verify", [](const CompressedModel& model) { check(without_gil([&] { return model.verify(); })); },
+          "Checks every checksum and decodes every block; raises RuntimeError (\"corrupt: ...\") on the first "
+          "problem.")
+      .def("__repr__", [](const CompressedModel& model) {
+        return "<sspc.CompressedModel " + std::to_string(model.patch_count()) + " patches, " +
+               std::to_string(model.codeword_count()) + " code words>";
+      });
+}
+
+}  // namespace
+
+void bind_codec(py::module_& m) {
+  m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), py::arg("level") = 5,
+        py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(), py::arg("tau") = py::none(),
+        py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
+        py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
+        py::arg("progress") = py::none(), R"doc(
+Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
+
+cloud: a PointCloud or an (N, 3) position array (copied once: the encoder adds normals).
+path: the .sspc file to write (atomically); the statistics of `sspc encode --json` come back as a
+dict (level, points, patches, codewords, bits_per_point, file_bytes, ..., seconds). None: the
+file's bytes come back instead (encoded through a temporary file, then read into one bytes object).
+
+The keyword arguments mirror `sspc encode --help`: level 0 (most detail) .. 9 (smallest);
+patch_points (8..4096), epsilon, tau, position_bits (4..16) override single fields of the level;
+store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
+normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint
+orients estimated normals towards a point; seed; threads > 0 caps the worker threads.
+
+progress: None or a callable progress(stage, fraction) called with the stage's name and the
+fraction done (0.0 at its start, 1.0 at its end, NaN where the stage's size is unknown), at most
+every 50 ms, possibly from a worker thread; only the callback holds the GIL, which the encoder
+releases. An exception it raises stops the reports and is raised once the encoder returns.
+
+Raises ValueError for options out of range or a cloud of fewer than 16 points, OSError when the
+file cannot be written.)doc");
+  bind_compressed_model(m);
+}
+
+}  // namespace sspc::python

@@ -1,0 +1,143 @@
+"""encode and CompressedModel: statistics, random access against the whole decode and against the
+command-line tool, and the errors of missing and corrupt files."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import sspc
+from conftest import rows
+
+
+def test_encode_to_a_file_returns_the_cli_statistics(bumps, tmp_path):
+    path = tmp_path / "bumps.sspc"
+    stats = sspc.encode(bumps, path, level=5)
+    for key in ("level", "points", "patches", "codewords", "bits_per_point", "file_bytes", "covered", "seconds"):
+        assert key in stats
+    assert stats["points"] == len(bumps)
+    assert stats["file_bytes"] == path.stat().st_size
+    assert stats["bits_per_point"] == pytest.approx(8 * stats["file_bytes"] / len(bumps))
+    assert stats["covered"]
+    # A surface of identical bumps shares code words between its patches.
+    assert stats["codewords"] < stats["patches"]
+
+
+def test_encode_to_bytes_gives_the_same_file(bumps, tmp_path):
+    path = tmp_path / "bumps.sspc"
+    sspc.encode(bumps, path, level=6, seed=2)
+    data = sspc.encode(bumps, None, level=6, seed=2)
+    assert isinstance(data, bytes)
+    assert data == path.read_bytes()  # deterministic, and the same writer
+
+
+def test_encode_options_are_checked(bumps):
+    with pytest.raises(ValueError, match="level"):
+        sspc.encode(bumps, None, level=10)
+    with pytest.raises(ValueError, match="normals must be"):
+        sspc.encode(bumps, None, normals="guess")
+    with pytest.raises(ValueError):
+        sspc.encode(sspc.synthetic.plane(10), None)  # fewer than 16 points
+    with pytest.raises(TypeError):
+        sspc.encode(bumps, None, 5)  # options are keyword-only
+
+
+def test_levels_trade_rate_for_detail(bumps):
+    fine = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, level=2))
+    coarse = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, level=8))
+    assert coarse.info()["bits_per_point"] < fine.info()["bits_per_point"]
+    assert sspc.eval(bumps, coarse.decode_all())["psnr"] < sspc.eval(bumps, fine.decode_all())["psnr"]
+
+
+def test_info_describes_the_model(bunny_model, bunny_model_path, bunny):
+    info = bunny_model.info()
+    assert info["format"] == "sspc" and info["version"] == 2
+    assert info["source_points"] == len(bunny)
+    assert info["patches"] == bunny_model.patch_count
+    assert info["codewords"] == bunny_model.codeword_count
+    assert info["file_bytes"] == bunny_model_path.stat().st_size
+    lo, hi = bunny.bounds()
+    assert np.allclose(info["bbox_min"], lo, atol=1e-3) and np.allclose(info["bbox_max"], hi, atol=1e-3)
+    assert [s["name"] for s in info["sections"]][0] == "header"
+
+
+def test_patches_concatenate_to_the_whole_decode(bunny_model):
+    whole = bunny_model.decode_all()
+    assert abs(len(whole) - bunny_model.info()["source_points"]) < 0.05 * len(whole)
+    parts = [bunny_model.decode_patch(k).positions for k in range(bunny_model.patch_count)]
+    np.testing.assert_array_equal(np.concatenate(parts), whole.positions)
+
+
+def test_patch_record_maps_the_code_word_onto_the_patch(bunny_model):
+    record = bunny_model.patch(3)
+    r, t = record["rotation"], record["translation"]
+    assert r.shape == (3, 3) and t.shape == (3,)
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-4)
+    word = bunny_model.codeword(record["codeword"])
+    placed = word["points"].positions @ r.T + t  # world_from_codeword
+    decoded = bunny_model.decode_patch(3, overlap=True).positions
+    assert len(decoded) == len(placed)
+    np.testing.assert_allclose(decoded, placed, atol=1e-5)
+
+
+def test_decode_box_is_the_subset_of_the_whole_inside_it(bunny_model):
+    whole = bunny_model.decode_all()
+    lo, hi = np.array([-0.05, 0.05, -0.05]), np.array([0.0, 0.12, 0.05])
+    box = bunny_model.decode_box(lo, hi)
+    p = whole.positions
+    inside = p[np.all((p >= lo.astype(np.float32)) & (p <= hi.astype(np.float32)), axis=1)]
+    assert 0 < len(box) < len(whole)
+    np.testing.assert_array_equal(box.positions, inside)  # the same points, in the same order
+    assert rows(box) <= rows(whole)
+    empty = bunny_model.decode_box((10, 10, 10), (11, 11, 11))
+    assert len(empty) == 0 and empty.positions.shape == (0, 3)
+
+
+def test_decode_all_equals_the_command_line_decode(bunny_model, bunny_model_path, cli, tmp_path):
+    out = tmp_path / "cli.ply"
+    subprocess.run([cli, "--quiet", "decode", str(bunny_model_path), str(out)], check=True)
+    from_cli = sspc.read(out)
+    mine = bunny_model.decode_all()
+    np.testing.assert_array_equal(mine.positions, from_cli.positions)
+    assert (mine.normals is None) == (from_cli.normals is None)
+
+
+def test_from_bytes_decodes_like_open(bunny_model, bunny_model_path):
+    for data in (bunny_model_path.read_bytes(), bytearray(bunny_model_path.read_bytes())):
+        model = sspc.CompressedModel.from_bytes(data)
+        np.testing.assert_array_equal(model.decode_all().positions, bunny_model.decode_all().positions)
+
+
+def test_store_normals_decodes_normals(bumps):
+    model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, store_normals=True))
+    assert model.info()["normals"]
+    decoded = model.decode_all()
+    assert decoded.normals is not None and decoded.normals.shape == decoded.positions.shape
+
+
+def test_missing_and_corrupt_files_raise_with_the_library_message(bunny_model_path, tmp_path):
+    with pytest.raises(FileNotFoundError, match="nothing.sspc: no such file"):
+        sspc.CompressedModel.open(tmp_path / "nothing.sspc")
+    with pytest.raises(RuntimeError, match="not an .sspc file"):
+        sspc.CompressedModel.from_bytes(b"this is not a model")
+    data = bunny_model_path.read_bytes()
+    truncated = tmp_path / "truncated.sspc"
+    truncated.write_bytes(data[: len(data) // 3])
+    with pytest.raises(RuntimeError, match="truncated.sspc.*truncated"):
+        sspc.CompressedModel.open(truncated)
+    flipped = bytearray(data)
+    flipped[len(data) // 2] ^= 0xFF  # inside a block: found when the block is read
+    model = sspc.CompressedModel.from_bytes(flipped)
+    with pytest.raises(RuntimeError, match="CRC32 mismatch"):
+        model.verify()
+    with pytest.raises(RuntimeError, match="corrupt"):
+        model.decode_all()
+
+
+def test_indices_are_checked(bunny_model):
+    with pytest.raises(IndexError, match="out of range"):
+        bunny_model.decode_patch(bunny_model.patch_count)
+    with pytest.raises(IndexError):
+        bunny_model.patch(-1)
+    with pytest.raises(IndexError):
+        bunny_model.codeword(bunny_model.codeword_count)
