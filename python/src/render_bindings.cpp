@@ -144,7 +144,7 @@ source: a CompressedModel, rendered directly: the MLS surface of its decoded poi
 across instances, built brick by brick as rays reach them through the model's random-access
 decoding and cached within memory_budget_mib; or a PointCloud or (N, 3) position array, whose
 normals are estimated when it has none. bandwidth: the MLS bandwidth h in point spacings.)doc")
-      .def(py::init<const py::object&, float, const std::string&, int, const py::object&>(), py::arg("source"),
+      .def(py::init<const py::object&, float, double, int, const py::object&>(), py::arg("source"),
            py::arg("bandwidth") = 1.5f, py::arg("memory_budget_mib") = 512.0, py::arg("threads") = 0,
            py::arg("progress") = py::none())
       .def("render", &Scene::render, py::kw_only(), py::arg("width") = 1024, py::arg("height") = 1024,
