@@ -70,10 +70,21 @@ declare -a rss_kib
 for scan in $SCANS; do
   src="$data/$scan.ply"
   [ -f "$src" ] || { echo "bench_render: $src missing, skipped" >&2; continue; }
+  # One camera for every render of a scan: the automatic framing of the source's bounds (a
+  # decoded cloud's bounds differ by the codec's error, and so would its automatic camera).
+  read -r eye target < <("$sspc" --quiet info "$src" --json | python3 -c '
+import json, math, sys
+info = json.load(sys.stdin)
+lo, hi = info["bbox_min"], info["bbox_max"]
+c = [(a + b) / 2 for a, b in zip(lo, hi)]
+r = 0.5 * math.dist(lo, hi)
+d = 1.05 * r / math.sin(math.atan(math.tan(math.radians(20))))
+print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
+  camera=(--eye "$eye" --target "$target")
   # The uncompressed scene needs normals: estimated once (scans that have them keep theirs).
   plain="$WORK/$scan.normals.ply"
   [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
-  measure "$scan" uncompressed "$plain"
+  measure "$scan" uncompressed "$plain" "${camera[@]}"
   for level in $LEVELS; do
     model="$WORK/$scan.l$level.sspc"
     [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
@@ -81,9 +92,9 @@ for scan in $SCANS; do
     decoded="$WORK/$scan.l$level.decoded.ply"
     [ -f "$decoded" ] || { "$sspc" --quiet decode "$model" "$WORK/d.ply" -f &&
                            "$sspc" --quiet normals "$WORK/d.ply" "$decoded" --normals auto; }
-    measure "$scan" "decoded-l$level" "$decoded"
+    measure "$scan" "decoded-l$level" "$decoded" "${camera[@]}"
     for budget in $BUDGETS; do
-      measure "$scan" "compressed-l$level-${budget}MiB" "$model" --memory-budget "$budget" \
+      measure "$scan" "compressed-l$level-${budget}MiB" "$model" "${camera[@]}" --memory-budget "$budget" \
         --compare "$WORK/frame_decoded-l$level.png"
     done
   done
@@ -97,8 +108,8 @@ from results_section import replace_section
 path, results, commit, cores = sys.argv[1:]
 rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
-         "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera (the scan's "
-         "bounding box seen from +z), Mrays/s over all rays (median of 3 frames), scene bytes per original point "
+         "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera of the source (its "
+         "bounding box seen from +z), the same for every model of a scan, Mrays/s over all rays (median of 3 frames), scene bytes per original point "
          "(points, normals and grids; a compressed model's the peak of its brick cache under the budget named), "
          "peak memory of the whole process; a compressed model's image PSNR over the pixels hit and the pixels "
          "hit in one image only, against the render of its own decode (`decoded-lN`).", "",

@@ -206,7 +206,9 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load(std::size_t b) const
   options.patch_of = &patch_of;
   SSPC_ASSIGN_OR_RETURN(PointCloud cloud, model_->decode_box(wide, options));
   if (!has_normals_) {
-    if (cloud.size() < 3) return SurfacePtr(std::make_shared<const render::MlsSurface>(std::span<const Vec3f>(),
+    // PCA needs 3 neighbours: a brick reached by fewer than 4 points (a stray few at its
+    // margin) shows none of them.
+    if (cloud.size() < 4) return SurfacePtr(std::make_shared<const render::MlsSurface>(std::span<const Vec3f>(),
                                                                                       std::span<const Vec3f>(), h_));
     NormalOptions normals;
     normals.k = static_cast<int>(std::min<std::size_t>(kNormalNeighbours, cloud.size() - 1));
