@@ -21,6 +21,7 @@
 #include "io/las_format.hpp"
 #include "io/las_header.hpp"
 #include "io/reader_common.hpp"
+#include "io/scalar_type.hpp"
 
 namespace sspc {
 
@@ -167,7 +168,7 @@ void decode_records(const std::byte* records, const LasHeader& h, const std::int
         const double local = anchor != nullptr
                                  ? scale[k] * static_cast<double>(v - anchor[k])
                                  : offset[k] + scale[k] * static_cast<double>(v);
-        cloud.positions[i][k] = static_cast<float>(local);
+        cloud.positions[i][k] = narrow_to_float(local);  // beyond float's range: refused below
       }
       a.intensity[i] = load<std::uint16_t>(r + 12, le);
       const auto bits = std::to_integer<std::uint8_t>(r[14]);

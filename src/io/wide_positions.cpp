@@ -114,11 +114,20 @@ void WidePositions::finish(PointCloud& cloud) {
     return;
   }
   if (copy_->size() != cloud.size() || !float32_precision_warning(stats_, "")) return;
-  cloud.origin = round_origin(stats_);
-  const Vec3d origin = cloud.origin;
+  const Vec3d origin = round_origin(stats_);
+  // Rounding the centre moves the local values by up to half a power of ten: near float's
+  // range that could take them past it, and the cloud is better kept as it was read.
+  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
+  if (!((stats_.max - origin).cwiseAbs().maxCoeff() < kMax &&
+        (stats_.min - origin).cwiseAbs().maxCoeff() < kMax && origin.allFinite())) {
+    return;
+  }
+  cloud.origin = origin;
   const std::vector<Vec3d>& stored = *copy_;
   parallel_for_ranges(0, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) cloud.positions[i] = (stored[i] - origin).cast<float>();
+    for (std::size_t i = b; i < e; ++i) {
+      for (int k = 0; k < 3; ++k) cloud.positions[i][k] = narrow_to_float(stored[i][k] - origin[k]);
+    }
   });
 }
 
