@@ -75,7 +75,7 @@ Vec3d round_origin(const CoordinateStats& stats) {
   const double unit = span > 0 ? std::pow(10.0, std::floor(std::log10(span))) : 1.0;
   const Vec3d centre = (stats.min + stats.max) / 2;
   Vec3d origin;
-  for (int k = 0; k < 3; ++k) origin[k] = std::round(centre[k] / unit) * unit;
+  for (int k = 0; k < 3; ++k) origin[k] = std::round(centre[k] / unit) * unit + 0.0;  // no -0
   return origin;
 }
 
