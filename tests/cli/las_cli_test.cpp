@@ -3,6 +3,7 @@
 // from a pass-through to the millimetre.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -75,6 +76,26 @@ TEST(CliLas, DroppedFieldsAreNamedAndLazIsRefusedWithTheWayOut) {
   EXPECT_NE(laz.err.find("LAZ (LASzip-compressed LAS) is not supported"), std::string::npos)
       << laz.err;
   EXPECT_NE(laz.err.find("laszip -i in.laz -o out.las"), std::string::npos) << laz.err;
+}
+
+TEST(CliLas, PlyCommentsAndTheCrsSurviveEncodeAndDecode) {
+  test::TempDir dir;
+  StatusOr<PointCloud> cloud = read_point_cloud(bunny());
+  ASSERT_TRUE(cloud.ok());
+  ASSERT_FALSE(cloud->metadata.comments.empty());
+  cloud->metadata.crs_wkt = "LOCAL_CS[\"bunny\"]";
+  const auto in = dir.path() / "in.ply";
+  ASSERT_TRUE(write_ply(*cloud, in).ok());
+  const std::string model = (dir.path() / "m.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode -q " + in.string() + " " + model).exit_code, 0);
+  const auto out = dir.path() / "out.ply";
+  ASSERT_EQ(sspc(dir, "decode " + model + " " + out.string()).exit_code, 0);
+  const StatusOr<PointCloud> decoded = read_point_cloud(out);
+  ASSERT_TRUE(decoded.ok());
+  const std::vector<std::string>& c = decoded->metadata.comments;
+  ASSERT_EQ(c.size(), cloud->metadata.comments.size() + 1) << "and decode's own";
+  EXPECT_TRUE(std::equal(cloud->metadata.comments.begin(), cloud->metadata.comments.end(), c.begin()));
+  EXPECT_EQ(decoded->metadata.crs_wkt, cloud->metadata.crs_wkt);
 }
 
 // The case: the bunny scaled to 150 m at (500000, 4500000) came back 0.25 m off from a
