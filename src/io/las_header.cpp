@@ -102,6 +102,15 @@ class HeaderParser {
         return fail(las::kOffScale + 8 * static_cast<std::size_t>(k),
                     "scale factor is zero or not finite");
       }
+      // Real files use 0.0001 to 1. Local float32 values are multiples of the scale, and below
+      // 1e-30 they would fall among float's subnormals, above 1e30 past its range after 2^22
+      // steps: neither could give the stored integers back.
+      if (!(std::abs(s.scale[k]) >= 1e-30 && std::abs(s.scale[k]) <= 1e30)) {
+        return error_at_offset(StatusCode::kUnsupported, name_,
+                               las::kOffScale + 8 * static_cast<std::size_t>(k),
+                               "scale factor " + std::to_string(s.scale[k]) +
+                                   " is outside 1e-30 to 1e30 in magnitude");
+      }
       if (!std::isfinite(s.offset[k])) {
         return fail(las::kOffOffset + 8 * static_cast<std::size_t>(k), "offset is not finite");
       }

@@ -2,6 +2,7 @@
 // and 3, exact integers far from zero, the CRS records, and hostile headers: truncation at every
 // length, LAZ and COPC, records that run past their bounds.
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -156,6 +157,11 @@ TEST(LasReader, RefusesHeadersThatDoNotAddUp) {
   std::string zero_scale = las;
   for (int b = 0; b < 8; ++b) zero_scale[131 + static_cast<std::size_t>(b)] = 0;
   EXPECT_NE(message(zero_scale).find("scale factor is zero"), std::string::npos);
+  // Found by the fuzzer: a scale among float's subnormals cannot give the integers back.
+  std::string tiny_scale = las;
+  const double tiny = 1e-287;
+  std::memcpy(tiny_scale.data() + 131, &tiny, sizeof tiny);
+  EXPECT_NE(message(tiny_scale).find("is outside 1e-30 to 1e30"), std::string::npos);
 }
 
 }  // namespace
