@@ -71,8 +71,8 @@ class PayloadReader {
       m.cloud.crs_records.push_back(std::move(rec));
     }
     if (!r_.at_end()) {
-      return fail(r_.offset(), std::to_string(r_.remaining()) +
-                                   " bytes after the last metadata field");
+      return fail(r_.offset(),
+                  std::to_string(r_.remaining()) + " bytes after the last metadata field");
     }
     return m;
   }
@@ -81,9 +81,7 @@ class PayloadReader {
   Status fail(std::size_t offset, const std::string& what) const {
     return corrupt(name_ + ": byte " + std::to_string(offset) + ": metadata: " + what);
   }
-  Status in_context(const Status& s) const {
-    return corrupt(name_ + ": metadata: " + s.message());
-  }
+  Status in_context(const Status& s) const { return corrupt(name_ + ": metadata: " + s.message()); }
   template <typename T>
   StatusOr<T> read() {
     auto v = r_.read<T>();
@@ -158,8 +156,8 @@ std::string encode_metadata(const ModelMetadata& m) {
   return out + p;
 }
 
-StatusOr<ModelMetadata> decode_metadata(std::span<const std::byte> bytes,
-                                        std::uint64_t file_offset, const std::string& name) {
+StatusOr<ModelMetadata> decode_metadata(std::span<const std::byte> bytes, std::uint64_t file_offset,
+                                        const std::string& name) {
   const auto fail = [&](std::uint64_t at, const std::string& what) {
     return corrupt(name + ": byte " + std::to_string(at) + ": metadata: " + what);
   };

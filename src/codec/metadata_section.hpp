@@ -26,7 +26,7 @@ std::string encode_metadata(const ModelMetadata& metadata);
 
 // Parses the part that fills `bytes` (from the end of section 4 to the end of the file), which
 // starts at `file_offset`. kCorrupt naming `name` and the byte for anything FORMAT.md forbids.
-StatusOr<ModelMetadata> decode_metadata(std::span<const std::byte> bytes,
-                                        std::uint64_t file_offset, const std::string& name);
+StatusOr<ModelMetadata> decode_metadata(std::span<const std::byte> bytes, std::uint64_t file_offset,
+                                        const std::string& name);
 
 }  // namespace sspc::codec

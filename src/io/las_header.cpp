@@ -25,12 +25,12 @@ T at(std::span<const std::byte> data, std::size_t offset) {
 }
 
 Status refuse_laz(std::string_view name, bool copc) {
-  const std::string what =
-      copc ? "COPC (cloud-optimised, LAZ-compressed LAS) is not supported"
-           : "LAZ (LASzip-compressed LAS) is not supported";
+  const std::string what = copc ? "COPC (cloud-optimised, LAZ-compressed LAS) is not supported"
+                                : "LAZ (LASzip-compressed LAS) is not supported";
   return error_in(StatusCode::kUnsupported, name,
-                  what + "; decompress it to LAS first: pdal translate in.laz out.las, or "
-                         "laszip -i in.laz -o out.las");
+                  what +
+                      "; decompress it to LAS first: pdal translate in.laz out.las, or "
+                      "laszip -i in.laz -o out.las");
 }
 
 class HeaderParser {
@@ -57,8 +57,7 @@ class HeaderParser {
   }
 
   Status parse_fixed() {
-    if (data_.size() < las::kSignature.size() ||
-        as_text(data_.first(4)) != las::kSignature) {
+    if (data_.size() < las::kSignature.size() || as_text(data_.first(4)) != las::kSignature) {
       return error_in(StatusCode::kParseError, name_, "not a LAS file: no 'LASF' signature");
     }
     if (data_.size() < las::kHeaderSize12) {
@@ -84,10 +83,9 @@ class HeaderParser {
                                : s.version_minor == 3 ? las::kHeaderSize13
                                                       : las::kHeaderSize12;
     if (h_.header_size < needed) {
-      return fail(las::kOffHeaderSize, "header size " + std::to_string(h_.header_size) +
-                                           " is less than LAS 1." +
-                                           std::to_string(s.version_minor) + "'s " +
-                                           std::to_string(needed));
+      return fail(las::kOffHeaderSize,
+                  "header size " + std::to_string(h_.header_size) + " is less than LAS 1." +
+                      std::to_string(s.version_minor) + "'s " + std::to_string(needed));
     }
     if (data_.size() < h_.header_size) return truncated(h_.header_size, "the public header block");
     h_.point_data_offset = at<std::uint32_t>(data_, las::kOffPointDataOffset);
@@ -155,9 +153,9 @@ class HeaderParser {
       at_byte = end;
     }
     if (h_.point_data_offset < at_byte) {
-      return fail(las::kOffPointDataOffset, "point data offset " +
-                                                std::to_string(h_.point_data_offset) +
-                                                " lies inside the header");
+      return fail(
+          las::kOffPointDataOffset,
+          "point data offset " + std::to_string(h_.point_data_offset) + " lies inside the header");
     }
     return Status();
   }
@@ -166,14 +164,13 @@ class HeaderParser {
     if (evlr_count_ == 0) return Status();
     if (evlr_start_ < h_.point_data_offset) {
       return fail(las::kOffEvlrStart, "extended variable-length records start at " +
-                                          std::to_string(evlr_start_) +
-                                          ", before the point data");
+                                          std::to_string(evlr_start_) + ", before the point data");
     }
     std::uint64_t at_byte = evlr_start_;
     for (std::uint32_t i = 0; i < evlr_count_; ++i) {
       if (at_byte > data_.size() || data_.size() - at_byte < las::kEvlrHeaderSize) {
-        return truncated(static_cast<std::size_t>(std::min<std::uint64_t>(
-                             at_byte + las::kEvlrHeaderSize, SIZE_MAX)),
+        return truncated(static_cast<std::size_t>(
+                             std::min<std::uint64_t>(at_byte + las::kEvlrHeaderSize, SIZE_MAX)),
                          "extended variable-length record " + std::to_string(i));
       }
       const auto length = at<std::uint64_t>(data_, static_cast<std::size_t>(at_byte) + 20);
@@ -216,15 +213,14 @@ class HeaderParser {
   Status check_points() {
     const int format = format_byte_;
     if (format > las::kMaxPointFormat) {
-      return error_at_offset(StatusCode::kUnsupported, name_, las::kOffPointFormat,
-                             "point data record format " + std::to_string(format) +
-                                 " (LAS defines 0 to 10)");
+      return error_at_offset(
+          StatusCode::kUnsupported, name_, las::kOffPointFormat,
+          "point data record format " + std::to_string(format) + " (LAS defines 0 to 10)");
     }
     h_.source.point_format = static_cast<std::uint8_t>(format);
     const std::size_t minimum = las::kMinRecordLength[static_cast<std::size_t>(format)];
     if (h_.record_length < minimum) {
-      return fail(las::kOffRecordLength, "point record length " +
-                                             std::to_string(h_.record_length) +
+      return fail(las::kOffRecordLength, "point record length " + std::to_string(h_.record_length) +
                                              " is less than point format " +
                                              std::to_string(format) + "'s " +
                                              std::to_string(minimum));

@@ -165,9 +165,8 @@ void decode_records(const std::byte* records, const LasHeader& h, const std::int
       const std::byte* r = records + i * stride;
       for (int k = 0; k < 3; ++k) {
         const std::int64_t v = load<std::int32_t>(r + 4 * static_cast<std::size_t>(k), le);
-        const double local = anchor != nullptr
-                                 ? scale[k] * static_cast<double>(v - anchor[k])
-                                 : offset[k] + scale[k] * static_cast<double>(v);
+        const double local = anchor != nullptr ? scale[k] * static_cast<double>(v - anchor[k])
+                                               : offset[k] + scale[k] * static_cast<double>(v);
         cloud.positions[i][k] = narrow_to_float(local);  // beyond float's range: refused below
       }
       a.intensity[i] = load<std::uint16_t>(r + 12, le);
@@ -283,11 +282,12 @@ StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std:
   std::string dropped;
   keep_records(h, cloud, dropped);
   if (!dropped.empty()) {
-    notes.push_back(std::string(name) + ": dropped variable-length records sspc does not carry: " +
-                    dropped);
+    notes.push_back(std::string(name) +
+                    ": dropped variable-length records sspc does not carry: " + dropped);
   }
   if (las::point_layout(h.source.point_format).wave >= 0) {
-    notes.push_back(std::string(name) + ": dropped the waveform packet descriptors of point format " +
+    notes.push_back(std::string(name) +
+                    ": dropped the waveform packet descriptors of point format " +
                     std::to_string(h.source.point_format));
   }
   LasPointAttributes& a = cloud.las;
@@ -302,9 +302,9 @@ StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std:
   set_colours(cloud);
 
   if (const auto bad = first_non_finite_point(cloud)) {
-    return non_finite_error(name, cloud, *bad,
-                            "byte offset " + std::to_string(h.point_data_offset +
-                                                            *bad * h.record_length));
+    return non_finite_error(
+        name, cloud, *bad,
+        "byte offset " + std::to_string(h.point_data_offset + *bad * h.record_length));
   }
   SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
   if (options.positions_f64 != nullptr) {

@@ -111,8 +111,10 @@ void LasEncoder::choose_format(const LasWriteOptions& options) {
     format = without_waveform(c.metadata.las->point_format);
     const las::PointLayout l = las::point_layout(format);
     if (l.extended) {
-      if (nir) format = 8;
-      else if (rgb && l.rgb < 0) format = 7;
+      if (nir)
+        format = 8;
+      else if (rgb && l.rgb < 0)
+        format = 7;
     } else if (extended) {
       format = nir ? 8 : rgb || l.rgb >= 0 ? 7 : 6;
     } else {
@@ -127,10 +129,10 @@ void LasEncoder::choose_format(const LasWriteOptions& options) {
   }
   format_ = format;
   const std::uint64_t n = c.size();
-  minor_ = format >= 6 || !c.metadata.crs_wkt.empty() ||
-                   n > std::numeric_limits<std::uint32_t>::max()
-               ? 4
-               : 2;
+  minor_ =
+      format >= 6 || !c.metadata.crs_wkt.empty() || n > std::numeric_limits<std::uint32_t>::max()
+          ? 4
+          : 2;
   if (c.metadata.las) minor_ = std::max<int>(minor_, c.metadata.las->version_minor);
   extra_ = a.extra_bytes.empty() ? 0 : a.extra_bytes_per_point;
   record_length_ = las::kMinRecordLength[static_cast<std::size_t>(format)] + extra_;
@@ -270,10 +272,11 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
   const unsigned scan = value_or<std::uint8_t>(a.scan_flags, i, 0);
   const double angle = value_or<float>(a.scan_angle, i, 0.0f);
   if (!l.extended) {
-    r[14] = std::byte(static_cast<std::uint8_t>((ret & 7u) | ((returns & 7u) << 3) |
-                                                ((scan & 3u) << 6)));
+    r[14] = std::byte(
+        static_cast<std::uint8_t>((ret & 7u) | ((returns & 7u) << 3) | ((scan & 3u) << 6)));
     r[15] = std::byte(static_cast<std::uint8_t>((cls & 31u) | ((cls_flags & 7u) << 5)));
-    store<std::int8_t>(r + 16, static_cast<std::int8_t>(std::clamp(std::round(angle), -90.0, 90.0)));
+    store<std::int8_t>(r + 16,
+                       static_cast<std::int8_t>(std::clamp(std::round(angle), -90.0, 90.0)));
     r[17] = std::byte(value_or<std::uint8_t>(a.user_data, i, 0));
     store<std::uint16_t>(r + 18, value_or<std::uint16_t>(a.point_source_id, i, 0));
   } else {
@@ -282,8 +285,8 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
                                                 ((scan & 3u) << 6)));
     r[16] = std::byte(static_cast<std::uint8_t>(cls));
     r[17] = std::byte(value_or<std::uint8_t>(a.user_data, i, 0));
-    store<std::int16_t>(r + 18,
-                        static_cast<std::int16_t>(std::clamp(std::round(angle / 0.006), -30000.0, 30000.0)));
+    store<std::int16_t>(r + 18, static_cast<std::int16_t>(
+                                    std::clamp(std::round(angle / 0.006), -30000.0, 30000.0)));
     store<std::uint16_t>(r + 20, value_or<std::uint16_t>(a.point_source_id, i, 0));
   }
   if (l.gps >= 0) store<double>(r + l.gps, value_or<double>(a.gps_time, i, 0.0));

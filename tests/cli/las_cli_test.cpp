@@ -26,7 +26,8 @@ TEST(CliLas, ConvertInfoEncodeDecode) {
   EXPECT_EQ(again.exit_code, 1) << "an existing output needs --force";
   const CliRun info = sspc(dir, "info " + las);
   ASSERT_EQ(info.exit_code, 0) << info.err;
-  EXPECT_NE(info.out.find("las         version 1.2, point format 0"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("las         version 1.2, point format 0"), std::string::npos)
+      << info.out;
   EXPECT_NE(info.out.find("las scale   1e-07"), std::string::npos) << info.out;
   const CliRun json = sspc(dir, "info --json " + las);
   EXPECT_NE(json.out.find("\"las_point_format\":0"), std::string::npos) << json.out;
@@ -65,8 +66,7 @@ TEST(CliLas, DroppedFieldsAreNamedAndLazIsRefusedWithTheWayOut) {
   EXPECT_NE(ply.err.find("dropped intensity, classification"), std::string::npos) << ply.err;
   const CliRun encode =
       sspc(dir, "encode -q " + las.string() + " " + (dir.path() / "o.sspc").string());
-  EXPECT_NE(encode.err.find("dropped intensity, classification"), std::string::npos)
-      << encode.err;
+  EXPECT_NE(encode.err.find("dropped intensity, classification"), std::string::npos) << encode.err;
 
   std::string bytes = slurp(las);
   bytes[104] = static_cast<char>(bytes[104] | 0x80);  // LASzip's compressed bit
@@ -94,7 +94,8 @@ TEST(CliLas, PlyCommentsAndTheCrsSurviveEncodeAndDecode) {
   ASSERT_TRUE(decoded.ok());
   const std::vector<std::string>& c = decoded->metadata.comments;
   ASSERT_EQ(c.size(), cloud->metadata.comments.size() + 1) << "and decode's own";
-  EXPECT_TRUE(std::equal(cloud->metadata.comments.begin(), cloud->metadata.comments.end(), c.begin()));
+  EXPECT_TRUE(
+      std::equal(cloud->metadata.comments.begin(), cloud->metadata.comments.end(), c.begin()));
   EXPECT_EQ(decoded->metadata.crs_wkt, cloud->metadata.crs_wkt);
 }
 

@@ -147,9 +147,11 @@ TEST(LasReader, RefusesHeadersThatDoNotAddUp) {
     EXPECT_FALSE(cloud.ok());
     return cloud.status().to_string();
   };
-  EXPECT_NE(message(with_byte(las, 105, 19)).find("point record length 19 is less than point format 0's 20"),
+  EXPECT_NE(message(with_byte(las, 105, 19))
+                .find("point record length 19 is less than point format 0's 20"),
             std::string::npos);
-  EXPECT_NE(message(with_byte(las, 104, 11)).find("point data record format 11"), std::string::npos);
+  EXPECT_NE(message(with_byte(las, 104, 11)).find("point data record format 11"),
+            std::string::npos);
   EXPECT_NE(message(with_byte(las, 25, 5)).find("LAS version 1.5"), std::string::npos);
   EXPECT_NE(message(with_byte(las, 107, 5)).find("promises 5 points"), std::string::npos);
   EXPECT_NE(message(with_byte(las, 100, 1)).find("starts past the point data offset"),

@@ -27,12 +27,13 @@ std::uint32_t u32_at(const std::string& bytes, std::size_t at) {
 }
 
 // The point records of a LAS file: from the point data offset to the end.
-std::string records_of(const std::string& bytes) { return bytes.substr(u32_at(bytes, 96)); }
+std::string records_of(const std::string& bytes) {
+  return bytes.substr(u32_at(bytes, 96));
+}
 
 TEST(LasWriter, PassThroughGivesBackTheSameRecordsByteForByte) {
   for (const int format : {0, 1, 2, 3}) {
-    const std::string source =
-        test::hand_las12(format, test::hand_points(200), 0.01, 0, 0, 0);
+    const std::string source = test::hand_las12(format, test::hand_points(200), 0.01, 0, 0, 0);
     const StatusOr<PointCloud> cloud = read_bytes(source);
     ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
     const StatusOr<std::string> written = encode_las(*cloud);
@@ -94,7 +95,8 @@ TEST(LasWriter, EveryPointFormatKeepsEveryField) {
 }
 
 TEST(LasWriter, CrsAndExtraBytesSurvive) {
-  StatusOr<PointCloud> cloud = read_bytes(test::hand_las12(1, test::hand_points(30), 0.01, 0, 0, 0));
+  StatusOr<PointCloud> cloud =
+      read_bytes(test::hand_las12(1, test::hand_points(30), 0.01, 0, 0, 0));
   ASSERT_TRUE(cloud.ok());
   cloud->metadata.crs_wkt = "PROJCS[\"NAD83 / Oregon GIC Lambert (ft)\"]";
   cloud->las.extra_bytes_per_point = 3;
@@ -117,8 +119,7 @@ TEST(LasWriter, CrsAndExtraBytesSurvive) {
 TEST(LasWriter, CloudsFromOtherFormatsComeBackFromTheirOwnGrid) {
   // Georeferenced: a double PLY at (500000, 4500000, 100), read with an origin.
   test::TempDir dir;
-  const std::vector<Vec3d> far =
-      test::shifted(test::wavy_patch(20), Vec3d(500000, 4500000, 100));
+  const std::vector<Vec3d> far = test::shifted(test::wavy_patch(20), Vec3d(500000, 4500000, 100));
   test::write_bytes(dir.path() / "far.ply", test::ply_double(far, true));
   const StatusOr<PointCloud> cloud = read_point_cloud(dir.path() / "far.ply");
   ASSERT_TRUE(cloud.ok());
