@@ -143,6 +143,50 @@ def xyz_seeds():
           "".join("%g %g %g 0 %d %d %d\n" % (*p, *c) for p, _, c in pts))
 
 
+def las_file(minor, fmt, n, vlrs=(), evlrs=(), scale=0.01, offset=(500000.0, 4500000.0, 0.0),
+             extra=0):
+    """LAS 1.minor, point format fmt, n points (ASPRS LAS specification R15, sections 2.4-2.16)."""
+    lengths = [length + extra for length in [20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67]]
+    header_size = {2: 227, 3: 235, 4: 375}[minor]
+    vlr_bytes = b"".join(struct.pack("<H16sHH32s", 0, u.encode(), rid, len(d), b"") + d
+                         for u, rid, d in vlrs)
+    offset_to_points = header_size + len(vlr_bytes)
+    recs = b""
+    for i in range(n):
+        x, y, z = 100 + i * 7, 200 + (i * 13) % 50, i % 5
+        r = struct.pack("<iiiH", x, y, z, 1000 + i)
+        if fmt < 6:
+            r += struct.pack("<BBbBH", 0x09, 2 + i % 3, i % 20 - 10, 0, 1)
+        else:
+            r += struct.pack("<BBBBhH", 0x11, 0, 2 + i % 3, 0, 100 * i, 1)
+        r += b"\0" * (lengths[fmt] - len(r))
+        recs += r
+    evlr_start = offset_to_points + len(recs)
+    h = b"LASF" + struct.pack("<HH16sBB32s32sHHHIIBHI5I", 0, 0, b"", 1, minor, b"seed", b"make_seeds.py",
+                              1, 2024, header_size, offset_to_points, len(vlrs), fmt, lengths[fmt],
+                              n if fmt < 6 else 0, 0, 0, 0, 0, 0)
+    h += struct.pack("<3d3d6d", scale, scale, scale, *offset, 1, 0, 1, 0, 1, 0)
+    if minor >= 3:
+        h += struct.pack("<Q", 0)
+    if minor >= 4:
+        h += struct.pack("<QIQ15Q", evlr_start if evlrs else 0, len(evlrs), n, *([0] * 15))
+    tail = b"".join(struct.pack("<H16sHQ32s", 0, u.encode(), rid, len(d), b"") + d for u, rid, d in evlrs)
+    return h + vlr_bytes + recs + tail
+
+
+def las_seeds():
+    wkt = b'PROJCS["WGS 84 / UTM zone 10N"]\0'
+    keys = struct.pack("<8H", 1, 1, 0, 1, 1024, 0, 1, 1)
+    write("las_reader", "las12_format1.las", las_file(2, 1, 6, [("LASF_Projection", 34735, keys)]))
+    write("las_reader", "las12_format3.las", las_file(2, 3, 5))
+    write("las_reader", "las13_format5.las", las_file(3, 5, 3))
+    write("las_reader", "las14_format6_wkt.las", las_file(4, 6, 6, [("LASF_Projection", 2112, wkt)]))
+    write("las_reader", "las14_format8_evlr.las",
+          las_file(4, 8, 4, evlrs=[("LASF_Spec", 3, b"text")]))
+    write("las_reader", "las12_extra_bytes.las",
+          las_file(2, 0, 4, [("LASF_Spec", 4, b"\0" * 192)], extra=2))
+
+
 def roundtrip_seeds():
     """Options byte, then 3 bytes per point on the 256³ grid."""
     def grid(flags, cells):
@@ -168,4 +212,5 @@ if __name__ == "__main__":
     ply_seeds()
     pcd_seeds()
     xyz_seeds()
+    las_seeds()
     roundtrip_seeds()

@@ -20,7 +20,7 @@ fi
 target="$1"
 seconds="$2"
 case "$target" in
-  ply_reader | pcd_reader | xyz_reader) max_len=4096 timeout=10 ;;
+  ply_reader | pcd_reader | xyz_reader | las_reader) max_len=4096 timeout=10 ;;
   sspc_decoder) max_len=8192 timeout=10 ;;
   encode_roundtrip) max_len=6001 timeout=30 ;;  # 1 options byte + 2000 points of 3 bytes
   render) max_len=12288 timeout=20 ;;            # .sspc models and small clouds

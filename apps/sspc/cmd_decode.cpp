@@ -1,4 +1,5 @@
-// sspc decode IN.sspc OUT.ply: the whole model, one patch (--patch) or a box (--box), as PLY.
+// sspc decode IN.sspc OUT.ply|OUT.las: the whole model, one patch (--patch) or a box (--box), as
+// PLY or LAS by the output's extension, in the source's world coordinates.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -53,11 +54,17 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   if (o.patch >= 0) {
     cloud = model->decode_patch(static_cast<std::size_t>(o.patch), options);
   } else if (!o.box.empty()) {
-    cloud = model->decode_box(*parse_box(o.box), options);  // validated by CLI11
+    // The box is in world coordinates; the model answers in its local ones.
+    const Box3f world = *parse_box(o.box);  // validated by CLI11
+    const Vec3d origin = model->origin();
+    const Box3f local((world.min().cast<double>() - origin).cast<float>(),
+                      (world.max().cast<double>() - origin).cast<float>());
+    cloud = model->decode_box(local, options);
   } else {
     cloud = model->decode_all(options);
   }
   if (!cloud.ok()) return report_failure(cloud.status());  // names the file already
+  cloud->metadata = model->metadata();
   const double decode_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -65,7 +72,7 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   ply.encoding = o.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
   ply.comments.push_back("decoded by sspc from " +
                          std::filesystem::path(o.input).filename().string());
-  const Status written = write_ply(*cloud, o.output, ply);
+  const Status written = write_point_cloud(*cloud, o.output, ply);
   if (!written.ok()) return report_failure(written);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -92,9 +99,10 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
 Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<DecodeCliOptions>();
   CLI::App* app =
-      root.add_subcommand("decode", "Decode an .sspc file (all of it, one patch or a box) to PLY");
+      root.add_subcommand("decode",
+                          "Decode an .sspc file (all of it, one patch or a box) to PLY or LAS");
   app->add_option("input", o->input, "Compressed model (.sspc)")->required();
-  app->add_option("output", o->output, "Point cloud to write (.ply)")->required();
+  app->add_option("output", o->output, "Point cloud to write (.ply or .las)")->required();
   auto* box =
       app->add_option("--box", o->box, "Only the points in this box")
           ->type_name("X0,Y0,Z0,X1,Y1,Z1")

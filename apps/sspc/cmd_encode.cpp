@@ -40,6 +40,14 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   read.progress = progress.get();
   auto cloud = read_cloud(o.input, read);
   if (!cloud.ok()) return report_failure(cloud.status());
+  // The codec keeps positions, normals and colours; a LAS file's own fields are named, not lost
+  // silently.
+  if (!cloud->las.empty()) {
+    std::fprintf(stderr, "sspc: warning: %s: the .sspc model keeps positions%s; dropped %s\n",
+                 o.input.c_str(), cloud->has_colors() ? " and colours" : "",
+                 cloud->las.names().c_str());
+    cloud->las.clear();
+  }
   const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   EncodeOptions options;

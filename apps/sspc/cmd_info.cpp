@@ -22,15 +22,47 @@ const char* format_name(PointCloudFormat f) {
     case PointCloudFormat::kPly: return "ply";
     case PointCloudFormat::kXyz: return "xyz";
     case PointCloudFormat::kPcd: return "pcd";
+    case PointCloudFormat::kLas: return "las";
+    case PointCloudFormat::kXyzRgb: return "xyzrgb";
+    case PointCloudFormat::kXyzN: return "xyzn";
     case PointCloudFormat::kAuto: break;
   }
   return "detected from content";
 }
 
-std::string format_vec3(const Vec3f& v) {
+std::string format_vec3(const Vec3d& v) {
   char buf[128];
-  std::snprintf(buf, sizeof buf, "%.9g %.9g %.9g", double{v.x()}, double{v.y()}, double{v.z()});
+  std::snprintf(buf, sizeof buf, "%.15g %.15g %.15g", v.x(), v.y(), v.z());
   return buf;
+}
+
+// The attributes line: the model's, then a LAS file's own fields.
+std::string attribute_names(const PointCloud& cloud) {
+  std::string out = "positions";
+  if (cloud.has_normals()) out += " normals";
+  if (cloud.has_colors()) out += " colors";
+  if (!cloud.las.empty()) out += "; LAS: " + cloud.las.names();
+  return out;
+}
+
+void print_las_source(const PointCloud& cloud) {
+  const LasSource& las = *cloud.metadata.las;
+  std::printf("las         version %d.%d, point format %d, by '%s'\n", las.version_major,
+              las.version_minor, las.point_format, las.generating_software.c_str());
+  std::printf("las scale   %s\n", format_vec3(las.scale).c_str());
+  std::printf("las offset  %s\n", format_vec3(las.offset).c_str());
+}
+
+std::string crs_summary(const CloudMetadata& m) {
+  if (!m.crs_wkt.empty()) {
+    const std::size_t bracket = m.crs_wkt.find('[');
+    return "WKT " + m.crs_wkt.substr(0, std::min<std::size_t>(bracket == std::string::npos ? 40 : bracket + 40, 80)) +
+           (m.crs_wkt.size() > 80 ? "..." : "");
+  }
+  if (!m.crs_records.empty()) {
+    return "GeoTIFF keys (" + std::to_string(m.crs_records.size()) + " records)";
+  }
+  return "none";
 }
 
 int run_info(const InfoOptions& options, const GlobalOptions& global) {
@@ -43,7 +75,9 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
 
   std::error_code ec;
   const auto file_bytes = std::filesystem::file_size(options.input, ec);
-  const Box3f box = cloud->bounding_box();
+  const Box3f local_box = cloud->bounding_box();
+  const Box3d box(cloud->origin + local_box.min().cast<double>(),
+                  cloud->origin + local_box.max().cast<double>());
   const double diagonal = bounding_box_diagonal(*cloud);
   const double spacing = nominal_spacing(*cloud);
   const char* format = format_name(format_from_extension(options.input));
@@ -55,6 +89,21 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
     json.field("file_bytes", static_cast<std::uint64_t>(ec ? 0 : file_bytes));
     json.field("points", static_cast<std::uint64_t>(cloud->size()));
     json.field("normals", cloud->has_normals()).field("colors", cloud->has_colors());
+    json.field("las_attributes", cloud->las.names());
+    json.key("origin");
+    write_vec3(json, cloud->origin);
+    json.field("crs", cloud->metadata.has_crs());
+    json.field("comments", static_cast<std::uint64_t>(cloud->metadata.comments.size()));
+    if (cloud->metadata.las) {
+      const LasSource& las = *cloud->metadata.las;
+      json.field("las_version", std::to_string(las.version_major) + "." +
+                                    std::to_string(las.version_minor));
+      json.field("las_point_format", static_cast<std::uint64_t>(las.point_format));
+      json.key("las_scale");
+      write_vec3(json, las.scale);
+      json.key("las_offset");
+      write_vec3(json, las.offset);
+    }
     json.key("bbox_min");
     write_vec3(json, box.min());
     json.key("bbox_max");
@@ -64,13 +113,17 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
     print_line(json.str());
     return kExitOk;
   }
-  std::string attributes = "positions";
-  if (cloud->has_normals()) attributes += " normals";
-  if (cloud->has_colors()) attributes += " colors";
+  const std::string attributes = attribute_names(*cloud);
   std::printf("file        %s (%llu bytes, %s)\n", options.input.c_str(),
               static_cast<unsigned long long>(ec ? 0 : file_bytes), format);
   std::printf("points      %zu\n", cloud->size());
   std::printf("attributes  %s\n", attributes.c_str());
+  if (cloud->metadata.las) print_las_source(*cloud);
+  std::printf("crs         %s\n", crs_summary(cloud->metadata).c_str());
+  if (cloud->origin != Vec3d::Zero()) {
+    std::printf("origin      %s (positions are kept relative to it)\n",
+                format_vec3(cloud->origin).c_str());
+  }
   std::printf("bbox min    %s\n", format_vec3(box.min()).c_str());
   std::printf("bbox max    %s\n", format_vec3(box.max()).c_str());
   std::printf("diagonal    %.9g\n", diagonal);
@@ -84,7 +137,7 @@ Command add_info_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* app = root.add_subcommand("info", "Describe a point cloud: points, attributes, bounds, spacing");
   app->add_option("file", options->input,
-                  "Point cloud (.ply, .xyz/.pts, .pcd) or compressed model (.sspc)")
+                  "Point cloud (.ply, .las, .xyz/.pts/.xyzrgb/.xyzn, .pcd) or compressed model (.sspc)")
       ->required();
   app->add_flag("--json", options->json, "Machine-readable output on stdout");
   return {app, [options, &global] { return run_info(*options, global); }};

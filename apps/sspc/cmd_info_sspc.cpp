@@ -35,6 +35,11 @@ int run_info_sspc(const std::string& path, bool as_json) {
     json.begin_object();
     json.field("file", path).field("format", "sspc").field("version", m.version);
     json.field("file_bytes", m.file_bytes);
+    json.key("origin");
+    write_vec3(json, model->origin());
+    json.field("crs", model->metadata().has_crs());
+    json.field("comments", static_cast<std::uint64_t>(model->metadata().comments.size()));
+    json.field("las_grid", model->metadata().las.has_value());
     json.field("normals", m.has_normals).field("colors", m.has_colors);
     json.field("source_points", m.source_points);
     json.field("patches", m.patches).field("codewords", m.codewords);
@@ -82,6 +87,12 @@ int run_info_sspc(const std::string& path, bool as_json) {
   std::printf("patch radius   %.9g (coverage %.9g, code words reach %.9g)\n",
               double{m.patch_radius}, double{m.coverage_radius}, double{m.codeword_radius});
   std::printf("spacing        %.9g\n", double{m.spacing});
+  const Vec3d origin = model->origin();
+  const CloudMetadata& meta = model->metadata();
+  std::printf("origin         %.15g %.15g %.15g (the bounds below are relative to it)\n",
+              origin.x(), origin.y(), origin.z());
+  std::printf("metadata       %zu comments, CRS %s, LAS grid %s\n", meta.comments.size(),
+              meta.has_crs() ? "yes" : "none", meta.las ? "yes" : "none");
   std::printf("bbox min       %.9g %.9g %.9g\n", double{m.bounds.min().x()},
               double{m.bounds.min().y()}, double{m.bounds.min().z()});
   std::printf("bbox max       %.9g %.9g %.9g\n", double{m.bounds.max().x()},

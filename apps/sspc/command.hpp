@@ -36,6 +36,7 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global);
 Command add_decode_command(CLI::App& root, const GlobalOptions& global);
 Command add_verify_command(CLI::App& root, const GlobalOptions& global);
 Command add_render_command(CLI::App& root, const GlobalOptions& global);
+Command add_convert_command(CLI::App& root, const GlobalOptions& global);
 
 // The .sspc branch of `sspc info` (cmd_info_sspc.cpp): files that start with the .sspc magic.
 bool is_sspc_file(const std::string& path);

@@ -111,4 +111,8 @@ void write_vec3(JsonWriter& json, const Vec3f& v) {
   json.begin_array().value(double{v.x()}).value(double{v.y()}).value(double{v.z()}).end_array();
 }
 
+void write_vec3(JsonWriter& json, const Vec3d& v) {
+  json.begin_array().value(v.x()).value(v.y()).value(v.z()).end_array();
+}
+
 }  // namespace sspc::cli

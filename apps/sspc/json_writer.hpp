@@ -46,5 +46,6 @@ class JsonWriter {
 
 // [x, y, z] as a JSON array of numbers.
 void write_vec3(JsonWriter& json, const Vec3f& v);
+void write_vec3(JsonWriter& json, const Vec3d& v);
 
 }  // namespace sspc::cli

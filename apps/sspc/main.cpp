@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   commands.push_back(add_decode_command(app, global));
   commands.push_back(add_verify_command(app, global));
   commands.push_back(add_render_command(app, global));
+  commands.push_back(add_convert_command(app, global));
 
   try {
     app.parse(argc, argv);

@@ -104,9 +104,16 @@ class CompressedModel {
   StatusOr<PatchRecord> patch(std::size_t k) const;
   StatusOr<CodeWordData> codeword(std::size_t c) const;
 
+  // Where the model lies: a point in the world is origin() + its decoded position (in double).
+  // Every position the model answers with (patches, boxes, bounds) is local to it; decoded
+  // clouds carry it as PointCloud::origin. metadata(): the source's comments, CRS and LAS grid.
+  Vec3d origin() const;
+  const CloudMetadata& metadata() const;
+
   // Patch k's points in the world: exactly its part of decode_all(), in the same order.
   StatusOr<PointCloud> decode_patch(std::size_t k, const DecodeOptions& options = {}) const;
-  // Exactly the points of decode_all() inside `box` (inclusive), in the same order.
+  // Exactly the points of decode_all() inside `box` (inclusive, local coordinates), in the same
+  // order.
   StatusOr<PointCloud> decode_box(const Box3f& box, const DecodeOptions& options = {}) const;
   // The whole model, patches in file order; parallel and deterministic.
   StatusOr<PointCloud> decode_all(const DecodeOptions& options = {}) const;
@@ -119,6 +126,7 @@ class CompressedModel {
  private:
   struct Impl;
   explicit CompressedModel(std::unique_ptr<Impl> impl);
+  PointCloud placed(PointCloud cloud) const;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -1,5 +1,9 @@
 // Reading and writing point clouds: PLY (ascii, binary little and big endian), XYZ/PTS text,
-// and PCL's PCD (ascii, binary, binary_compressed).
+// PCL's PCD (ascii, binary, binary_compressed) and LAS 1.0-1.4 (point formats 0-10; LAZ and
+// COPC are refused with the command that decompresses them).
+//
+// Coordinates far from zero (georeferenced scans) get an origin: the cloud holds float32 local
+// positions and a double origin (sspc/point_cloud.hpp), and writers write origin + position.
 //
 // Safe on untrusted input: every reader bounds-checks what it reads, never trusts a count in a
 // header beyond what the file's size can hold, rejects NaN and infinite coordinates, and reports
@@ -9,6 +13,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -20,9 +25,12 @@
 
 namespace sspc {
 
-enum class PointCloudFormat { kAuto, kPly, kXyz, kPcd };
+// kXyzRgb and kXyzN are XYZ text whose six columns the extension names (Open3D's .xyzrgb, with
+// colours as 0..1 floats or 0..255 integers, and .xyzn); plain kXyz guesses (xyz_reader.cpp).
+enum class PointCloudFormat { kAuto, kPly, kXyz, kPcd, kLas, kXyzRgb, kXyzN };
 
-// "ply", "xyz", "pcd" (and "pts", "txt" for xyz); kAuto for anything else.
+// "ply", "xyz", "pcd", "las" and "laz" (and "pts", "txt" for xyz, "xyzrgb", "xyzn"); kAuto for
+// anything else.
 PointCloudFormat format_from_extension(const std::filesystem::path& path);
 
 struct ReadOptions {
@@ -38,8 +46,7 @@ struct ReadOptions {
   // When not null, replaced by the positions as the file stores them, in double, index for
   // index with the cloud's: exact for every stored type but 64-bit integers beyond 2^53; text
   // is rounded once, to the nearest double. For work that needs more than float32 far from the
-  // origin (sspc eval). Its caller has the file's own values, so the float32 warning above is
-  // not given.
+  // origin (sspc eval).
   std::vector<Vec3d>* positions_f64 = nullptr;
 };
 
@@ -52,6 +59,7 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
 StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name);
 StatusOr<PointCloud> read_xyz(std::span<const std::byte> data, std::string_view name);
 StatusOr<PointCloud> read_pcd(std::span<const std::byte> data, std::string_view name);
+StatusOr<PointCloud> read_las(std::span<const std::byte> data, std::string_view name);
 
 enum class PlyEncoding { kBinaryLittleEndian, kBinaryBigEndian, kAscii };
 
@@ -67,5 +75,27 @@ Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
                  const PlyWriteOptions& options = {});
 // The PLY bytes, for tests and in-memory use.
 std::string encode_ply(const PointCloud& cloud, const PlyWriteOptions& options = {});
+
+struct LasWriteOptions {
+  // 0-3 or 6-8. Unset: the source LAS's format (its waveform packets dropped: 4 → 1, 5 → 3,
+  // 9 → 6, 10 → 8), widened when the cloud has fields that format lacks, else the smallest
+  // format that holds the cloud's fields. LAS 1.2, or 1.4 for formats 6-8, a WKT CRS, more
+  // than 2^32 − 1 points or a 1.3/1.4 source.
+  std::optional<int> point_format;
+  // Unset: the source LAS's scale and offset (so that its integers come back exactly), else per
+  // axis a power of ten at the detail float32 holds of the cloud's extent.
+  std::optional<Vec3d> scale;
+};
+
+// Writes LAS atomically. kInvalidArgument when the cloud's coordinates cannot be stored in LAS's
+// 32-bit integers at the scale.
+Status write_las(const PointCloud& cloud, const std::filesystem::path& path,
+                 const LasWriteOptions& options = {});
+StatusOr<std::string> encode_las(const PointCloud& cloud, const LasWriteOptions& options = {});
+
+// Writes PLY or LAS as the extension says (".ply", ".las"), the cloud's comments and CRS with
+// it; kUnsupported for other extensions, naming the ones it writes. `ply` applies to PLY.
+Status write_point_cloud(const PointCloud& cloud, const std::filesystem::path& path,
+                         const PlyWriteOptions& ply = {});
 
 }  // namespace sspc

@@ -249,6 +249,17 @@ StatusOr<CodeWordData> CompressedModel::codeword(std::size_t c) const {
   return out;
 }
 
+// A decoded cloud in the world of the file. The metadata stays with metadata(): a renderer
+// decodes patches by the thousand and needs no copy of a CRS with each.
+PointCloud CompressedModel::placed(PointCloud cloud) const {
+  cloud.origin = impl_->reader.metadata().origin;
+  return cloud;
+}
+
+Vec3d CompressedModel::origin() const { return impl_->reader.metadata().origin; }
+
+const CloudMetadata& CompressedModel::metadata() const { return impl_->reader.metadata().cloud; }
+
 StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
                                                    const DecodeOptions& options) const {
   if (k >= patch_count()) {
@@ -260,7 +271,7 @@ StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
   thread_local std::vector<codec::Neighbour> neighbours;
   SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options.overlap, nullptr, neighbours, out));
   if (options.patch_of != nullptr) options.patch_of->assign(out.size(), static_cast<std::uint32_t>(k));
-  return out;
+  return placed(std::move(out));
 }
 
 StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
@@ -270,7 +281,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
   }
   PointCloud out;
   if (options.patch_of != nullptr) options.patch_of->clear();
-  if (box.isEmpty()) return out;
+  if (box.isEmpty()) return placed(std::move(out));
   const codec::ContainerHeader& h = impl_->reader.header();
   // A patch's points lie within its code word's radius (≤ codeword_radius) of its centre.
   const float scale = std::max(
@@ -295,7 +306,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
     progress_advance(options.progress, 1);
   }
   progress_end(options.progress);
-  return out;
+  return placed(std::move(out));
 }
 
 StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) const {
@@ -355,7 +366,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
     options.patch_of->reserve(total);
     for (const auto& p : part_patches) options.patch_of->insert(options.patch_of->end(), p.begin(), p.end());
   }
-  return out;
+  return placed(std::move(out));
 }
 
 Status CompressedModel::verify() const {

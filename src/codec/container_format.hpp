@@ -20,7 +20,8 @@ inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;
 inline constexpr std::uint16_t kFlagColors = 1u << 1;
-inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors;
+inline constexpr std::uint16_t kFlagMetadata = 1u << 2;  // the metadata part follows section 4
+inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors | kFlagMetadata;
 
 inline constexpr std::size_t kHeaderSize = 196;
 inline constexpr std::size_t kHeaderCrcOffset = 192;
@@ -94,6 +95,7 @@ struct ContainerHeader {
 
   bool has_normals() const { return (flags & kFlagNormals) != 0; }
   bool has_colors() const { return (flags & kFlagColors) != 0; }
+  bool has_metadata() const { return (flags & kFlagMetadata) != 0; }
 };
 
 // One block's place in its section, as the seek tables store it.

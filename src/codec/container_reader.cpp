@@ -159,7 +159,12 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
     }
     expected = s.offset + s.size;
   }
-  if (expected != bytes.size()) {
+  if (h.has_metadata()) {
+    auto metadata = decode_metadata(bytes.subspan(static_cast<std::size_t>(expected)), expected,
+                                    r.name_);
+    if (!metadata.ok()) return metadata.status();
+    r.metadata_ = std::move(*metadata);
+  } else if (expected != bytes.size()) {
     return fail(expected, std::to_string(bytes.size() - expected) +
                               " trailing bytes after the declared end of the file");
   }

@@ -18,6 +18,7 @@
 
 #include "codec/block_codec.hpp"
 #include "codec/container_format.hpp"
+#include "codec/metadata_section.hpp"
 #include "sspc/status.hpp"
 
 namespace sspc::codec {
@@ -32,6 +33,8 @@ class ContainerReader {
   const std::vector<BlockEntry>& patch_blocks() const { return patch_blocks_; }
   std::size_t file_size() const { return bytes_.size(); }
   const std::string& name() const { return name_; }
+  // The metadata part; origin 0 and nothing else for a file without one.
+  const ModelMetadata& metadata() const { return metadata_; }
 
   Status read_codewords(std::size_t block, DecodedCodewords& out) const;
   Status read_patches(std::size_t block, DecodedPatches& out) const;
@@ -52,6 +55,7 @@ class ContainerReader {
   ContainerHeader header_;
   std::vector<BlockEntry> codebook_blocks_;
   std::vector<BlockEntry> patch_blocks_;
+  ModelMetadata metadata_;
 };
 
 }  // namespace sspc::codec

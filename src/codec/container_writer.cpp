@@ -190,8 +190,10 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   SSPC_RETURN_IF_ERROR(validate(source, options));
 
   ContainerHeader h;
+  const bool metadata = source.metadata.present();
   h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
-                                       (source.has_colors ? kFlagColors : 0));
+                                       (source.has_colors ? kFlagColors : 0) |
+                                       (metadata ? kFlagMetadata : 0));
   h.patch_radius = source.patch_radius;
   h.coverage_radius = source.coverage_radius;
   h.spacing = source.spacing;
@@ -316,8 +318,10 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     offset += s.size;
   }
   std::string out = encode_header(h);
-  out.reserve(offset);
+  const std::string metadata_part = metadata ? encode_metadata(source.metadata) : std::string();
+  out.reserve(offset + metadata_part.size());
   for (const std::string& s : section) out += s;
+  out += metadata_part;
 
   if (stats != nullptr) {
     stats->file_bytes = out.size();

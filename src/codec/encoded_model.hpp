@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "codec/metadata_section.hpp"
 #include "geometry/rigid_transform.hpp"
 #include "sspc/point_cloud.hpp"
 
@@ -44,6 +45,7 @@ struct EncodedModel {
   Box3f bounds;               // of the input points
   std::vector<CodeWord> codebook;
   std::vector<PatchInstance> patches;  // in file order (the encoder sorts them spatially)
+  ModelMetadata metadata;  // the origin of every position above, comments, CRS, LAS grid
 };
 
 }  // namespace sspc::codec

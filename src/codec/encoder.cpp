@@ -70,6 +70,10 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   codec::BuildStats build_stats;
   SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
   model.has_normals = model.has_normals && options.store_normals;
+  // Positions are coded as they are, local to the cloud's origin; the file keeps the origin.
+  model.metadata.origin = cloud.origin;
+  model.metadata.cloud = cloud.metadata;
+  model.metadata.cloud.extra_bytes_records.clear();  // the extra bytes themselves are not coded
   stats.seconds_centres = build_stats.seconds_centres;
   stats.seconds_codebook = build_stats.seconds_codebook;
   stats.seconds_descriptors = build_stats.codebook.seconds_descriptors;

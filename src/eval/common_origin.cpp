@@ -18,6 +18,7 @@ void move(PointCloud& cloud, std::span<const Vec3d> stored, const Vec3d& origin)
   for (std::size_t i = 0; i < stored.size(); ++i) {
     cloud.positions[i] = (stored[i] - origin).cast<float>();
   }
+  cloud.origin = origin;  // the positions are local to it now, whatever the reader chose
 }
 
 }  // namespace

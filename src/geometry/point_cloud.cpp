@@ -17,7 +17,72 @@ Box3f PointCloud::bounding_box() const {
   return box;
 }
 
+namespace {
+
+// "intensity" when `values` is neither empty nor as long as the positions.
+template <typename T>
+void check_size(const std::vector<T>& values, std::size_t n, const char* name,
+                std::string& wrong) {
+  if (!values.empty() && values.size() != n && wrong.empty()) wrong = name;
+}
+
+struct NamedField {
+  const char* name;
+  bool present;
+};
+
+}  // namespace
+
+bool LasPointAttributes::empty() const { return names().empty(); }
+
+std::string LasPointAttributes::names() const {
+  const NamedField fields[] = {
+      {"intensity", !intensity.empty()},
+      {"return numbers", !return_number.empty() || !number_of_returns.empty()},
+      {"classification", !classification.empty()},
+      {"classification flags", !classification_flags.empty()},
+      {"scan angle", !scan_angle.empty()},
+      {"scan direction and channel", !scan_flags.empty()},
+      {"user data", !user_data.empty()},
+      {"point source id", !point_source_id.empty()},
+      {"GPS time", !gps_time.empty()},
+      {"16-bit RGB", !rgb.empty()},
+      {"NIR", !nir.empty()},
+      {"extra bytes", !extra_bytes.empty()},
+  };
+  std::string out;
+  for (const NamedField& f : fields) {
+    if (!f.present) continue;
+    if (!out.empty()) out += ", ";
+    out += f.name;
+  }
+  return out;
+}
+
 Status PointCloud::validate() const {
+  if (!origin.allFinite()) return invalid_argument("point cloud has a non-finite origin");
+  std::string wrong;
+  const std::size_t n = positions.size();
+  check_size(las.intensity, n, "intensity", wrong);
+  check_size(las.return_number, n, "return number", wrong);
+  check_size(las.number_of_returns, n, "number of returns", wrong);
+  check_size(las.classification, n, "classification", wrong);
+  check_size(las.classification_flags, n, "classification flags", wrong);
+  check_size(las.scan_angle, n, "scan angle", wrong);
+  check_size(las.scan_flags, n, "scan flags", wrong);
+  check_size(las.user_data, n, "user data", wrong);
+  check_size(las.point_source_id, n, "point source id", wrong);
+  check_size(las.gps_time, n, "GPS time", wrong);
+  check_size(las.rgb, n, "16-bit RGB", wrong);
+  check_size(las.nir, n, "NIR", wrong);
+  if (!las.extra_bytes.empty() && las.extra_bytes.size() != n * las.extra_bytes_per_point &&
+      wrong.empty()) {
+    wrong = "extra bytes";
+  }
+  if (!wrong.empty()) {
+    return invalid_argument("point cloud has " + std::to_string(n) + " positions and a " + wrong +
+                            " array of another length");
+  }
   if (!normals.empty() && normals.size() != positions.size()) {
     return invalid_argument("point cloud has " + std::to_string(positions.size()) +
                             " positions but " + std::to_string(normals.size()) + " normals");

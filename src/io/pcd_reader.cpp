@@ -97,7 +97,7 @@ class PcdReader {
     // the bytes read and the bytes decoded differ.
     progress_advance(progress_, body().size());
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name_));
-    wide_->finish(cloud, name_);
+    wide_->finish(cloud);
     return cloud;
   }
 

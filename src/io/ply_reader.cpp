@@ -3,6 +3,7 @@
 #include "io/ply_body.hpp"
 #include "io/ply_header.hpp"
 #include "io/ply_vertex_layout.hpp"
+#include "io/ply_writer.hpp"
 #include "io/reader_common.hpp"
 #include "io/wide_positions.hpp"
 
@@ -20,6 +21,18 @@ bool positions_wider_than_float(const PlyHeader& header, const PlyVertexLayout& 
   return false;
 }
 
+// Comments travel with the cloud; one that starts "crs " holds its coordinate reference system
+// (how the PLY writer stores it, PLY having no field of its own for it).
+void keep_comments(const std::vector<std::string>& comments, CloudMetadata& metadata) {
+  for (const std::string& c : comments) {
+    if (c.starts_with(kPlyCrsComment)) {
+      metadata.crs_wkt = c.substr(kPlyCrsComment.size());
+    } else {
+      metadata.comments.push_back(c);
+    }
+  }
+}
+
 }  // namespace
 
 StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std::string_view name,
@@ -35,7 +48,8 @@ StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std:
     SSPC_RETURN_IF_ERROR(read_ply_binary_body(data, header, layout, name, sinks, cloud));
   }
   SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
-  wide.finish(cloud, name);
+  wide.finish(cloud);
+  keep_comments(header.comments, cloud.metadata);
   return cloud;
 }
 

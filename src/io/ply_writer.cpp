@@ -21,6 +21,18 @@ inline void store_float(std::byte* p, float v, Endian endian) {
   std::memcpy(p, &bits, sizeof bits);
 }
 
+inline void store_double(std::byte* p, double v, Endian endian) {
+  std::uint64_t bits = std::bit_cast<std::uint64_t>(v);
+  if (endian != kNativeEndian) bits = __builtin_bswap64(bits);
+  std::memcpy(p, &bits, sizeof bits);
+}
+
+inline void append_double(std::string& out, double v) {
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, res.ptr);
+}
+
 // Shortest representation that reads back to the same float (std::to_chars' guarantee).
 inline void append_float(std::string& out, float v) {
   char buf[32];
@@ -49,7 +61,8 @@ PlyEncoder::PlyEncoder(const PointCloud& cloud, const PlyWriteOptions& options)
     : cloud_(cloud), options_(options) {
   normals_ = options.write_normals && cloud.has_normals() && cloud.normals.size() == cloud.size();
   colors_ = options.write_colors && cloud.has_colors() && cloud.colors.size() == cloud.size();
-  stride_ = std::size_t{12} + (normals_ ? 12u : 0u) + (colors_ ? 3u : 0u);
+  doubles_ = cloud.origin != Vec3d::Zero();
+  stride_ = (doubles_ ? 24u : 12u) + (normals_ ? 12u : 0u) + (colors_ ? 3u : 0u);
 }
 
 std::string PlyEncoder::header() const {
@@ -60,9 +73,17 @@ std::string PlyEncoder::header() const {
     case PlyEncoding::kAscii: h += "ascii"; break;
   }
   h += " 1.0\n";
+  for (const std::string& c : cloud_.metadata.comments) h += "comment " + one_line(c) + "\n";
   for (const std::string& c : options_.comments) h += "comment " + one_line(c) + "\n";
+  if (!cloud_.metadata.crs_wkt.empty()) {
+    h += "comment " + std::string(kPlyCrsComment) + one_line(cloud_.metadata.crs_wkt) + "\n";
+  }
   h += "element vertex " + std::to_string(cloud_.size()) + "\n";
-  h += "property float x\nproperty float y\nproperty float z\n";
+  if (doubles_) {
+    h += "property double x\nproperty double y\nproperty double z\n";
+  } else {
+    h += "property float x\nproperty float y\nproperty float z\n";
+  }
   if (normals_) h += "property float nx\nproperty float ny\nproperty float nz\n";
   if (colors_) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   h += "end_header\n";
@@ -86,9 +107,15 @@ void PlyEncoder::append_binary(std::size_t begin, std::size_t end, std::string& 
   parallel_for_ranges(begin, end, 1 << 15, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       std::byte* rec = dst + (i - begin) * stride_;
-      for (int k = 0; k < 3; ++k)
-        store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.positions[i][k], endian);
-      rec += 12;
+      if (doubles_) {
+        const Vec3d w = cloud_.world(i);
+        for (int k = 0; k < 3; ++k) store_double(rec + 8 * static_cast<std::size_t>(k), w[k], endian);
+        rec += 24;
+      } else {
+        for (int k = 0; k < 3; ++k)
+          store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.positions[i][k], endian);
+        rec += 12;
+      }
       if (normals_) {
         for (int k = 0; k < 3; ++k)
           store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.normals[i][k], endian);
@@ -106,9 +133,17 @@ void PlyEncoder::append_binary(std::size_t begin, std::size_t end, std::string& 
 
 void PlyEncoder::append_ascii(std::size_t begin, std::size_t end, std::string& out) const {
   for (std::size_t i = begin; i < end; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      if (k > 0) out += ' ';
-      append_float(out, cloud_.positions[i][k]);
+    if (doubles_) {
+      const Vec3d w = cloud_.world(i);
+      for (int k = 0; k < 3; ++k) {
+        if (k > 0) out += ' ';
+        append_double(out, w[k]);
+      }
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        if (k > 0) out += ' ';
+        append_float(out, cloud_.positions[i][k]);
+      }
     }
     if (normals_) {
       for (int k = 0; k < 3; ++k) {
@@ -154,6 +189,18 @@ Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
     SSPC_RETURN_IF_ERROR(file.write(buffer));
   }
   return file.commit();
+}
+
+Status write_point_cloud(const PointCloud& cloud, const std::filesystem::path& path,
+                         const PlyWriteOptions& ply) {
+  const PointCloudFormat format = format_from_extension(path);
+  if (format == PointCloudFormat::kPly) return write_ply(cloud, path, ply);
+  if (format == PointCloudFormat::kLas && path.extension() != ".laz" &&
+      path.extension() != ".LAZ") {
+    return write_las(cloud, path);
+  }
+  return unsupported(path.string() + ": sspc writes .ply and .las; name the output " +
+                     path.stem().string() + ".ply or " + path.stem().string() + ".las");
 }
 
 }  // namespace sspc

@@ -5,11 +5,15 @@
 
 #include <cstddef>
 #include <string>
+#include <string_view>
 
 #include "sspc/io.hpp"
 #include "sspc/point_cloud.hpp"
 
 namespace sspc::io {
+
+// The comment that carries a cloud's CRS as WKT on one line: "comment crs PROJCRS[...]".
+inline constexpr std::string_view kPlyCrsComment = "crs ";
 
 class PlyEncoder {
  public:
@@ -29,6 +33,7 @@ class PlyEncoder {
   const PlyWriteOptions& options_;
   bool normals_ = false;
   bool colors_ = false;
+  bool doubles_ = false;  // positions as double world coordinates (the cloud has an origin)
   std::size_t stride_ = 0;  // bytes per binary record
 };
 

@@ -18,10 +18,12 @@ std::string lower(std::string s) {
   return s;
 }
 
-// PLY's magic line is mandatory. PCD files open with PCL's "# .PCD" comment or, when a tool
+// LAS (and LAZ, which the LAS reader refuses by name) opens with "LASF". PLY's magic line is
+// mandatory. PCD files open with PCL's "# .PCD" comment or, when a tool
 // dropped it, with VERSION or FIELDS. Anything else is given to the XYZ reader, whose first
 // error explains what it expected.
 PointCloudFormat sniff_format(std::string_view text) {
+  if (text.starts_with("LASF")) return PointCloudFormat::kLas;
   if (text.starts_with("ply\n") || text.starts_with("ply\r\n")) return PointCloudFormat::kPly;
   if (text.starts_with("# .PCD") || text.starts_with("VERSION") || text.starts_with("FIELDS")) {
     return PointCloudFormat::kPcd;
@@ -36,6 +38,9 @@ PointCloudFormat format_from_extension(const std::filesystem::path& path) {
   if (ext == ".ply") return PointCloudFormat::kPly;
   if (ext == ".pcd") return PointCloudFormat::kPcd;
   if (ext == ".xyz" || ext == ".pts" || ext == ".txt") return PointCloudFormat::kXyz;
+  if (ext == ".las" || ext == ".laz") return PointCloudFormat::kLas;
+  if (ext == ".xyzrgb") return PointCloudFormat::kXyzRgb;
+  if (ext == ".xyzn") return PointCloudFormat::kXyzN;
   return PointCloudFormat::kAuto;
 }
 
@@ -52,6 +57,11 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
     switch (format) {
       case PointCloudFormat::kPly: return io::read_ply_with_options(file.bytes(), name, options);
       case PointCloudFormat::kPcd: return io::read_pcd_with_options(file.bytes(), name, options);
+      case PointCloudFormat::kLas: return io::read_las_with_options(file.bytes(), name, options);
+      case PointCloudFormat::kXyzRgb:
+        return io::read_xyz_columns(file.bytes(), name, options, io::XyzSixColumns::kColors);
+      case PointCloudFormat::kXyzN:
+        return io::read_xyz_columns(file.bytes(), name, options, io::XyzSixColumns::kNormals);
       case PointCloudFormat::kXyz:
       case PointCloudFormat::kAuto: break;
     }

@@ -50,6 +50,14 @@ StatusOr<PointCloud> read_xyz_with_options(std::span<const std::byte> data, std:
                                            const ReadOptions& options);
 StatusOr<PointCloud> read_pcd_with_options(std::span<const std::byte> data, std::string_view name,
                                            const ReadOptions& options);
+StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options);
+
+// What the six columns of an XYZ file hold: guessed from the values (.xyz), or named by the
+// extension (.xyzrgb, .xyzn).
+enum class XyzSixColumns { kGuess, kColors, kNormals };
+StatusOr<PointCloud> read_xyz_columns(std::span<const std::byte> data, std::string_view name,
+                                      const ReadOptions& options, XyzSixColumns six);
 
 // Views bytes as text without copying.
 inline std::string_view as_text(std::span<const std::byte> data) {

@@ -69,18 +69,26 @@ std::optional<std::string> float32_precision_warning(const CoordinateStats& stat
   return out;
 }
 
+Vec3d round_origin(const CoordinateStats& stats) {
+  double span = 0;
+  for (int k = 0; k < 3; ++k) span = std::max(span, stats.max[k] - stats.min[k]);
+  const double unit = span > 0 ? std::pow(10.0, std::floor(std::log10(span))) : 1.0;
+  const Vec3d centre = (stats.min + stats.max) / 2;
+  Vec3d origin;
+  for (int k = 0; k < 3; ++k) origin[k] = std::round(centre[k] / unit) * unit + 0.0;  // no -0
+  return origin;
+}
+
 WidePositions::WidePositions(const ReadOptions& options, bool stored_wider)
     : stored_wider_(stored_wider),
-      check_(stored_wider && options.warnings != nullptr && options.positions_f64 == nullptr),
-      copy_(options.positions_f64),
-      warnings_(options.warnings),
-      wanted_(check_ || (stored_wider && copy_ != nullptr)) {
-  if (copy_ != nullptr) copy_->clear();
+      copy_(options.positions_f64 != nullptr ? options.positions_f64 : &own_copy_),
+      wanted_(stored_wider) {
+  copy_->clear();
 }
 
 void WidePositions::add_block(const std::byte* block, const StridedField (&fields)[3],
                               Endian endian, std::span<const Vec3f> held) {
-  if (copy_ != nullptr) copy_->resize(held.size());
+  copy_->resize(held.size());
   std::mutex merge_mutex;
   parallel_for_ranges(0, held.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
     CoordinateStats part;
@@ -91,22 +99,36 @@ void WidePositions::add_block(const std::byte* block, const StridedField (&field
             load_as_double(block + fields[k].offset + i * fields[k].stride, fields[k].type, endian);
       }
       part.add(stored, held[i]);
-      if (copy_ != nullptr) (*copy_)[i] = stored;
+      (*copy_)[i] = stored;
     }
     const std::lock_guard lock(merge_mutex);
     stats_.merge(part);
   });
 }
 
-void WidePositions::finish(const PointCloud& cloud, std::string_view name) {
-  if (copy_ != nullptr && !stored_wider_) {
+void WidePositions::finish(PointCloud& cloud) {
+  if (!stored_wider_) {
+    if (copy_ == &own_copy_) return;
     copy_->resize(cloud.size());
     for (std::size_t i = 0; i < cloud.size(); ++i) (*copy_)[i] = cloud.positions[i].cast<double>();
+    return;
   }
-  if (!check_) return;
-  if (std::optional<std::string> warning = float32_precision_warning(stats_, name)) {
-    warnings_->push_back(std::move(*warning));
+  if (copy_->size() != cloud.size() || !float32_precision_warning(stats_, "")) return;
+  const Vec3d origin = round_origin(stats_);
+  // Rounding the centre moves the local values by up to half a power of ten: near float's
+  // range that could take them past it, and the cloud is better kept as it was read.
+  constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
+  if (!((stats_.max - origin).cwiseAbs().maxCoeff() < kMax &&
+        (stats_.min - origin).cwiseAbs().maxCoeff() < kMax && origin.allFinite())) {
+    return;
   }
+  cloud.origin = origin;
+  const std::vector<Vec3d>& stored = *copy_;
+  parallel_for_ranges(0, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      for (int k = 0; k < 3; ++k) cloud.positions[i][k] = narrow_to_float(stored[i][k] - origin[k]);
+    }
+  });
 }
 
 }  // namespace sspc::io

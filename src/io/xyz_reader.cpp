@@ -10,6 +10,8 @@
 //      (the safer guess: a normal (0 0 1) written by "%g" looks exactly like that).
 //   7  x y z intensity r g b        (PTS)
 //   9  x y z nx ny nz r g b
+// The extensions .xyzn and .xyzrgb (Open3D's) name what six columns hold; colours are then
+// either all integers 0..255 or, as Open3D writes them, reals from 0 to 1 (scaled by 255).
 // Colours are integers 0..255 (anything else is an error). Lines that are blank or start with
 // '#' or '//' are skipped. A PTS file may start with a line holding only the point count; it must
 // then agree with the number of points (sspc reads single-scan PTS files only).
@@ -61,8 +63,10 @@ std::string_view without_bom(std::string_view text) {
 
 class XyzReader {
  public:
-  XyzReader(std::span<const std::byte> data, std::string_view name, const ReadOptions& options)
-      : text_(without_bom(as_text(data))),
+  XyzReader(std::span<const std::byte> data, std::string_view name, const ReadOptions& options,
+            XyzSixColumns six)
+      : six_(six),
+        text_(without_bom(as_text(data))),
         name_(name),
         progress_(options.progress),
         wide_(options, /*stored_wider=*/true),  // decimal text holds any precision
@@ -109,10 +113,10 @@ class XyzReader {
                            "the file declares " + std::to_string(*declared) + " points but holds " +
                                std::to_string(cloud_.size()));
     }
-    if (columns_ == XyzColumns::kXyzNormalsOrRgb) six_columns_to_colors();
+    if (columns_ == XyzColumns::kXyzNormalsOrRgb) SSPC_RETURN_IF_ERROR(six_columns_to_colors());
     progress_advance(progress_, bom_ + text_.size() - reported_);
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud_, name_));
-    wide_.finish(cloud_, name_);
+    wide_.finish(cloud_);
     return std::move(cloud_);
   }
 
@@ -236,8 +240,12 @@ class XyzReader {
   }
 
   // The six-column rule of the file comment, applied once the whole file has been seen.
-  void six_columns_to_colors() {
-    if (!colors_possible_ || !above_one_) return;
+  Status six_columns_to_colors() {
+    if (six_ == XyzSixColumns::kNormals) return Status();
+    if (six_ == XyzSixColumns::kColors && !(colors_possible_ && above_one_)) {
+      return unit_colors();
+    }
+    if (!colors_possible_ || !above_one_) return Status();
     cloud_.colors.resize(cloud_.size());
     for (std::size_t i = 0; i < cloud_.size(); ++i) {
       const Vec3f& v = cloud_.normals[i];
@@ -245,6 +253,26 @@ class XyzReader {
                               static_cast<std::uint8_t>(v.z())};
     }
     cloud_.normals = {};
+    return Status();
+  }
+
+  // Open3D's colours: reals from 0 to 1.
+  Status unit_colors() {
+    cloud_.colors.resize(cloud_.size());
+    for (std::size_t i = 0; i < cloud_.size(); ++i) {
+      const Vec3f& v = cloud_.normals[i];
+      if (!((v.array() >= 0).all() && (v.array() <= 1).all())) {
+        return error_in(StatusCode::kParseError, name_,
+                        "point " + std::to_string(i) +
+                            ": colours of an .xyzrgb file are all integers from 0 to 255 or all "
+                            "reals from 0 to 1, and this one is neither");
+      }
+      const Vec3f c = (v * 255.0f).array().round();
+      cloud_.colors[i] = Rgb8{static_cast<std::uint8_t>(c.x()), static_cast<std::uint8_t>(c.y()),
+                              static_cast<std::uint8_t>(c.z())};
+    }
+    cloud_.normals = {};
+    return Status();
   }
 
   void report_progress() {
@@ -255,6 +283,7 @@ class XyzReader {
     }
   }
 
+  XyzSixColumns six_;
   std::string_view text_;
   std::string_view name_;
   Progress* progress_;
@@ -274,7 +303,12 @@ class XyzReader {
 
 StatusOr<PointCloud> read_xyz_with_options(std::span<const std::byte> data, std::string_view name,
                                            const ReadOptions& options) {
-  return XyzReader(data, name, options).read();
+  return XyzReader(data, name, options, XyzSixColumns::kGuess).read();
+}
+
+StatusOr<PointCloud> read_xyz_columns(std::span<const std::byte> data, std::string_view name,
+                                      const ReadOptions& options, XyzSixColumns six) {
+  return XyzReader(data, name, options, six).read();
 }
 
 }  // namespace io

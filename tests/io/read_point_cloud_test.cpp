@@ -25,7 +25,11 @@ TEST(FormatFromExtension, KnownAndUnknown) {
   EXPECT_EQ(format_from_extension("d.xyz"), PointCloudFormat::kXyz);
   EXPECT_EQ(format_from_extension("d.pts"), PointCloudFormat::kXyz);
   EXPECT_EQ(format_from_extension("d.txt"), PointCloudFormat::kXyz);
-  EXPECT_EQ(format_from_extension("e.las"), PointCloudFormat::kAuto);
+  EXPECT_EQ(format_from_extension("e.las"), PointCloudFormat::kLas);
+  EXPECT_EQ(format_from_extension("e.LAZ"), PointCloudFormat::kLas);
+  EXPECT_EQ(format_from_extension("f.xyzrgb"), PointCloudFormat::kXyzRgb);
+  EXPECT_EQ(format_from_extension("f.xyzn"), PointCloudFormat::kXyzN);
+  EXPECT_EQ(format_from_extension("e.e57"), PointCloudFormat::kAuto);
   EXPECT_EQ(format_from_extension("noext"), PointCloudFormat::kAuto);
 }
 
