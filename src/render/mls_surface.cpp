@@ -29,6 +29,11 @@ constexpr float kMinStepUlps = 4.0f;
 // 0.15 s instead of taking 65,536 samples a ray.
 constexpr int kMissesBeforeSkip = 32;
 constexpr float kTolerance = 1e-3f;
+// |f| at an accepted root, in bandwidths: a continuous f is within about kTolerance·h of 0 when
+// the refinement stops; one that jumped is far from it.
+constexpr float kRootTolerance = 0.05f;
+// Power iterations for the principal axis of the normals' tensor (MlsSurface::evaluate).
+constexpr int kPowerIterations = 4;
 // The grid never has more cells than this many per point (plus a few for tiny sets): cells grow
 // beyond the support radius for sparse, spread-out points instead, which costs more candidates
 // per query but bounds the memory.
@@ -38,12 +43,11 @@ constexpr double kMinCells = 64;
 }  // namespace
 
 MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
-                       float edge_support, PointStorage storage, std::span<const std::uint32_t> ids)
+                       float edge_support, std::span<const std::uint32_t> ids)
     : h_(bandwidth),
       radius_(kSupport * bandwidth),
       inv_h2_(1.0f / (bandwidth * bandwidth)),
       floor_w_(std::exp(-kSupport * kSupport)),
-      compact_(storage == PointStorage::kCompact && points.size() < 65536),
       size_(points.size()),
       cell_{kSupport * bandwidth, kSupport * bandwidth, kSupport * bandwidth},
       inv_cell_{1, 1, 1},
@@ -58,7 +62,6 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   const std::size_t n = points.size();
   if (n == 0) {
     start_.assign(2, 0);
-    start16_.assign(2, 0);
     near_.assign(1, 0);
     for (int a = 0; a < 3; ++a) inv_cell_[a] = 1.0f / cell_[a];
     return;
@@ -67,7 +70,6 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   for (const Vec3f& p : points) box.extend(p);
   origin_ = box.min() - Vec3f::Constant(radius_);
   const Vec3f extent = box.max() - box.min() + Vec3f::Constant(2 * radius_);
-  if (compact_) cell_[2] = extent.z();  // one layer
   const double budget = std::max(kMaxCellsPerPoint * static_cast<double>(n), kMinCells);
   // Cells grow until they fit the budget: 1.25^400 spans float32's whole range, so the bound
   // only stops a loop that a cell edge of 0 (a bandwidth of 0) would never end.
@@ -75,7 +77,7 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
     double cells = 1;
     for (int a = 0; a < 3; ++a) cells *= std::max(1.0, std::ceil(static_cast<double>(extent[a] / cell_[a])));
     if (cells <= budget) break;
-    for (int a = 0; a < (compact_ ? 2 : 3); ++a) cell_[a] = std::max(cell_[a] * 1.25f, std::numeric_limits<float>::min());
+    for (int a = 0; a < 3; ++a) cell_[a] = std::max(cell_[a] * 1.25f, std::numeric_limits<float>::min());
   }
   for (int a = 0; a < 3; ++a) {
     dims_[a] = std::max(1, static_cast<int>(std::ceil(extent[a] / cell_[a])));
@@ -97,48 +99,15 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   }
   for (std::size_t c = 0; c < total; ++c) start_[c + 1] += start_[c];
   std::vector<std::uint32_t> next(start_.begin(), start_.end() - 1);
-  if (compact_) {
-    qx_.resize(n), qy_.resize(n), qz_.resize(n), qnx_.resize(n), qny_.resize(n), qnz_.resize(n);
-  } else {
-    x_.resize(n), y_.resize(n), z_.resize(n), nx_.resize(n), ny_.resize(n), nz_.resize(n);
-  }
+  x_.resize(n), y_.resize(n), z_.resize(n), nx_.resize(n), ny_.resize(n), nz_.resize(n);
   if (!ids.empty()) ids_.resize(n);
-  const auto to_u8 = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-  const auto to_s8 = [](float v) { return static_cast<std::int8_t>(std::lround(std::clamp(v, -1.0f, 1.0f) * 127.0f)); };
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t j = next[cell_of[i]]++;
     if (!ids.empty()) ids_[j] = ids[i];
     const Vec3f& p = points[i];
     const Vec3f& nn = normals[i];
-    if (compact_) {
-      const int ix = cell_coordinate(p.x(), 0), iy = cell_coordinate(p.y(), 1), iz = cell_coordinate(p.z(), 2);
-      const Vec3f local = (p - cell_corner(ix, iy, iz)).cwiseProduct(Vec3f(inv_cell_[0], inv_cell_[1], inv_cell_[2]));
-      qx_[j] = to_u8(local.x()), qy_[j] = to_u8(local.y()), qz_[j] = to_u8(local.z());
-      qnx_[j] = to_s8(nn.x()), qny_[j] = to_s8(nn.y()), qnz_[j] = to_s8(nn.z());
-    } else {
-      x_[j] = p.x(), y_[j] = p.y(), z_[j] = p.z();
-      nx_[j] = nn.x(), ny_[j] = nn.y(), nz_[j] = nn.z();
-    }
-  }
-  if (compact_) {
-    // Within each column of cells, points by height, so that an evaluation takes only the run
-    // within r of its height.
-    std::vector<std::uint32_t> order;
-    for (std::size_t c = 0; c < total; ++c) {
-      const std::uint32_t b = start_[c], e = start_[c + 1];
-      order.resize(e - b);
-      for (std::uint32_t j = b; j < e; ++j) order[j - b] = j;
-      std::stable_sort(order.begin(), order.end(), [&](std::uint32_t u, std::uint32_t v) { return qz_[u] < qz_[v]; });
-      const auto permute = [&](auto& values) {
-        const auto copy = std::vector<typename std::decay_t<decltype(values)>::value_type>(
-            values.begin() + b, values.begin() + e);
-        for (std::uint32_t k = 0; k < e - b; ++k) values[b + k] = copy[order[k] - b];
-      };
-      permute(qx_), permute(qy_), permute(qz_), permute(qnx_), permute(qny_), permute(qnz_);
-      if (!ids_.empty()) permute(ids_);
-    }
-    start16_.assign(start_.begin(), start_.end());
-    start_ = {};
+    x_[j] = p.x(), y_[j] = p.y(), z_[j] = p.z();
+    nx_[j] = nn.x(), ny_[j] = nn.y(), nz_[j] = nn.z();
   }
 
   // A cell is near when some point lies within r of its box: only there can the surface be.
@@ -175,7 +144,7 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
     if (j % stride != 0) return;
     Vec3f a, nn;
     float support = 0;
-    if (evaluate(p, a, nn, support)) samples.push_back(support);
+    if (evaluate(p, Vec3f::Zero(), a, nn, support)) samples.push_back(support);
   });
   if (!samples.empty()) {
     std::nth_element(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(samples.size() / 2), samples.end());
@@ -189,105 +158,79 @@ void MlsSurface::for_each_point(Visit&& visit) const {
     for (int iy = 0; iy < dims_[1]; ++iy) {
       for (int ix = 0; ix < dims_[0]; ++ix) {
         const std::size_t c = cell_index(ix, iy, iz);
-        const Vec3f corner = cell_corner(ix, iy, iz);
-        for (std::uint32_t j = cell_begin(c); j < cell_begin(c + 1); ++j) {
-          if (compact_) {
-            visit(j, corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f), qz_[j] * (cell_[2] / 255.0f)));
-          } else {
-            visit(j, Vec3f(x_[j], y_[j], z_[j]));
-          }
-        }
+        for (std::uint32_t j = cell_begin(c); j < cell_begin(c + 1); ++j) visit(j, Vec3f(x_[j], y_[j], z_[j]));
       }
     }
   }
 }
 
 std::size_t MlsSurface::memory_bytes() const {
-  const std::size_t points = compact_ ? 6 * size_ : 6 * size_ * sizeof(float);
-  return points + ids_.size() * sizeof(std::uint32_t) + start_.size() * sizeof(std::uint32_t) +
-         start16_.size() * sizeof(std::uint16_t) + near_.size() * sizeof(std::uint64_t);
+  return 6 * size_ * sizeof(float) + ids_.size() * sizeof(std::uint32_t) + start_.size() * sizeof(std::uint32_t) +
+         near_.size() * sizeof(std::uint64_t);
 }
 
-bool MlsSurface::evaluate(const Vec3f& x, Vec3f& a, Vec3f& n, float& support) const {
+bool MlsSurface::evaluate(const Vec3f& x, const Vec3f& facing, Vec3f& a, Vec3f& n, float& support) const {
   const float r2 = radius_ * radius_;
   const float to_table = static_cast<float>(kTable) / r2;
   const int x0 = cell_coordinate(x.x() - radius_, 0), x1 = cell_coordinate(x.x() + radius_, 0);
   const int y0 = cell_coordinate(x.y() - radius_, 1), y1 = cell_coordinate(x.y() + radius_, 1);
-  float sw = 0, spx = 0, spy = 0, spz = 0, snx = 0, sny = 0, snz = 0;
-  // The weight at squared distance d2 < r², interpolated in the table of the lowered Gaussian.
-  const auto weight = [&](float d2) {
-    const float u = d2 * to_table;
-    const auto k = static_cast<std::size_t>(u);
-    return weight_table_[k] + (u - static_cast<float>(k)) * (weight_table_[k + 1] - weight_table_[k]);
-  };
-  if (compact_) {
-    const float sx = cell_[0] / 255.0f, sy = cell_[1] / 255.0f, sz = cell_[2] / 255.0f;
-    // The heights within r of x's, in the columns' 255ths (points are sorted by height).
-    const float z_lo = (x.z() - radius_ - origin_.z()) / sz, z_hi = (x.z() + radius_ - origin_.z()) / sz;
-    if (z_hi < 0 || z_lo > 255) return false;
-    const auto q_lo = static_cast<std::uint8_t>(std::max(z_lo, 0.0f));
-    const auto q_hi = static_cast<std::uint8_t>(std::min(z_hi, 255.0f));
+  const int z0 = cell_coordinate(x.z() - radius_, 2), z1 = cell_coordinate(x.z() + radius_, 2);
+  // Σ w, Σ w (p − x) and the six entries of Σ w nnᵀ.
+  float sw = 0, spx = 0, spy = 0, spz = 0;
+  float txx = 0, txy = 0, txz = 0, tyy = 0, tyz = 0, tzz = 0;
+  for (int iz = z0; iz <= z1; ++iz) {
     for (int iy = y0; iy <= y1; ++iy) {
-      for (int ix = x0; ix <= x1; ++ix) {
-        const std::size_t c = cell_index(ix, iy, 0);
-        const Vec3f corner = cell_corner(ix, iy, 0);
-        const std::uint32_t end = start16_[c + 1];
-        std::uint32_t j = start16_[c];
-        while (j < end && qz_[j] < q_lo) ++j;
-        const Vec3f rel = corner - x;
-        for (; j < end && qz_[j] <= q_hi; ++j) {
-          const float dx = rel.x() + qx_[j] * sx, dy = rel.y() + qy_[j] * sy, dz = rel.z() + qz_[j] * sz;
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          if (d2 >= r2) continue;
-          // Normals in 127ths: the mean normal is normalised by the caller, so the scale drops
-          // out. Positions are summed relative to x, which keeps their precision.
-          const float w = weight(d2);
-          sw += w;
-          spx += w * dx, spy += w * dy, spz += w * dz;
-          snx += w * qnx_[j], sny += w * qny_[j], snz += w * qnz_[j];
-        }
-      }
-    }
-  } else {
-    const int z0 = cell_coordinate(x.z() - radius_, 2), z1 = cell_coordinate(x.z() + radius_, 2);
-    for (int iz = z0; iz <= z1; ++iz) {
-      for (int iy = y0; iy <= y1; ++iy) {
-        // Cells x0..x1 of one row are one contiguous run of points.
-        const std::uint32_t end = start_[cell_index(x1, iy, iz) + 1];
-        for (std::uint32_t j = start_[cell_index(x0, iy, iz)]; j < end; ++j) {
-          const float dx = x_[j] - x.x(), dy = y_[j] - x.y(), dz = z_[j] - x.z();
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          if (d2 >= r2) continue;
-          const float w = weight(d2);
-          sw += w;
-          spx += w * dx, spy += w * dy, spz += w * dz;
-          snx += w * nx_[j], sny += w * ny_[j], snz += w * nz_[j];
-        }
+      // Cells x0..x1 of one row are one contiguous run of points.
+      const std::uint32_t end = start_[cell_index(x1, iy, iz) + 1];
+      for (std::uint32_t j = start_[cell_index(x0, iy, iz)]; j < end; ++j) {
+        const float dx = x_[j] - x.x(), dy = y_[j] - x.y(), dz = z_[j] - x.z();
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 >= r2) continue;
+        // The weight at squared distance d2 < r², interpolated in the table of the lowered
+        // Gaussian. Positions are summed relative to x, which keeps their precision.
+        const float u = d2 * to_table;
+        const auto k = static_cast<std::size_t>(u);
+        const float w = weight_table_[k] + (u - static_cast<float>(k)) * (weight_table_[k + 1] - weight_table_[k]);
+        sw += w;
+        spx += w * dx, spy += w * dy, spz += w * dz;
+        const float wx = w * nx_[j], wy = w * ny_[j], wz = w * nz_[j];
+        txx += wx * nx_[j], txy += wx * ny_[j], txz += wx * nz_[j];
+        tyy += wy * ny_[j], tyz += wy * nz_[j], tzz += wz * nz_[j];
       }
     }
   }
   if (!(sw > min_support_)) return false;
   a = x + Vec3f(spx, spy, spz) / sw;
-  n = Vec3f(snx, sny, snz);
+  // The tensor's principal axis by power iteration from its largest column: where the normals
+  // agree up to sign (the tensor is nearly rank one) a few steps converge far below a degree.
+  Eigen::Matrix3f t;
+  t << txx, txy, txz, txy, tyy, tyz, txz, tyz, tzz;
+  int largest = 0;
+  if (tyy > t(largest, largest)) largest = 1;
+  if (tzz > t(largest, largest)) largest = 2;
+  Vec3f v = t.col(largest);
+  for (int it = 0; it < kPowerIterations; ++it) {
+    const float norm = v.norm();
+    if (!(norm > 0)) return false;
+    v = t * (v / norm);
+  }
+  const float norm = v.norm();
+  if (!(norm > 0) || !std::isfinite(norm)) return false;
+  n = v / norm;
+  if (n.dot(facing) < 0) n = -n;
   support = sw;
-  return n.squaredNorm() > 0;
+  return true;
 }
 
 template <typename Visit>
 void MlsSurface::for_each_point_near(const Vec3f& x, Visit&& visit) const {
   int c[3];
   for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
-  const int z_cells = compact_ ? 0 : 1;
-  for (int iz = std::max(c[2] - z_cells, 0); iz <= std::min(c[2] + z_cells, dims_[2] - 1); ++iz) {
+  for (int iz = std::max(c[2] - 1, 0); iz <= std::min(c[2] + 1, dims_[2] - 1); ++iz) {
     for (int iy = std::max(c[1] - 1, 0); iy <= std::min(c[1] + 1, dims_[1] - 1); ++iy) {
       for (int ix = std::max(c[0] - 1, 0); ix <= std::min(c[0] + 1, dims_[0] - 1); ++ix) {
         const std::size_t cell = cell_index(ix, iy, iz);
-        const Vec3f corner = cell_corner(ix, iy, iz);
-        for (std::uint32_t j = cell_begin(cell); j < cell_begin(cell + 1); ++j) {
-          visit(j, compact_ ? corner + Vec3f(qx_[j] * (cell_[0] / 255.0f), qy_[j] * (cell_[1] / 255.0f),
-                                             qz_[j] * (cell_[2] / 255.0f))
-                            : Vec3f(x_[j], y_[j], z_[j]));
-        }
+        for (std::uint32_t j = cell_begin(cell); j < cell_begin(cell + 1); ++j) visit(j, Vec3f(x_[j], y_[j], z_[j]));
       }
     }
   }
@@ -296,7 +239,7 @@ void MlsSurface::for_each_point_near(const Vec3f& x, Visit&& visit) const {
 float MlsSurface::clearance(const Vec3f& x) const {
   float nearest2 = std::numeric_limits<float>::infinity();
   for_each_point_near(x, [&](std::uint32_t, const Vec3f& p) { nearest2 = std::min(nearest2, (p - x).squaredNorm()); });
-  const float edge = compact_ ? std::min(cell_[0], cell_[1]) : std::min({cell_[0], cell_[1], cell_[2]});
+  const float edge = std::min({cell_[0], cell_[1], cell_[2]});
   return std::min(std::sqrt(nearest2), edge);
 }
 
@@ -335,13 +278,14 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
   SurfaceHit hit;
   Vec3f a, n;
   float support = 0;
-  // The signed distance to the local plane, f(x) = n(x)·(x − a(x)), positive on the side the
-  // normals face; false where the surface is undefined.
+  // The signed distance to the local plane, f(x) = n(x)·(x − a(x)), with n(x) turned the way of
+  // `facing`: the normal of the last sample, so that n keeps its sign along the ray, or towards
+  // the ray's origin at the first sample after a gap. False where the surface is undefined.
+  Vec3f facing = -d;
   const auto f_at = [&](float t, float& f) {
     ++hit.evaluations;
     const Vec3f x = o + t * d;
-    if (!evaluate(x, a, n, support)) return false;
-    n.normalize();
+    if (!evaluate(x, facing, a, n, support)) return false;
     f = n.dot(x - a);
     return true;
   };
@@ -368,6 +312,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
       }
       t = std::max(exit, t) + std::max(1e-3f * radius_, ulp_step);
       have_previous = false;
+      facing = -d;
       continue;
     }
     float f = 0;
@@ -386,6 +331,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
       }
       t += step;
       have_previous = false;
+      facing = -d;
       continue;
     }
     misses = 0;
@@ -394,12 +340,12 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
       // f changed sign between the last two samples: the surface is in between. Regula falsi
       // with the Illinois rule (the end that stays is halved), a handful of evaluations.
       float lo = t_previous, f_lo = f_previous, hi = t, f_hi = f;
-      float s = hi;
+      float s = hi, f_s = f;
       bool at_s = true;  // a, n and support were last evaluated at s
       int kept = 0;      // which end stayed last: −1 lo, +1 hi
+      facing = n;
       for (int it = 0; it < kMaxIterations; ++it) {
         s = lo - f_lo * (hi - lo) / (f_hi - f_lo);
-        float f_s = 0;
         at_s = f_at(s, f_s);
         if (!at_s) break;
         if (std::abs(f_s) < kTolerance * h_ || hi - lo < kTolerance * h_) break;
@@ -415,7 +361,9 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
           kept = -1;
         }
       }
-      if (at_s && s >= t_min && s <= t_max) {
+      // A root of f, not a jump of it across the bracket (where the normals turn by more than a
+      // right angle between two samples, f may change sign without passing through 0).
+      if (at_s && s >= t_min && s <= t_max && std::abs(f_s) <= kRootTolerance * h_) {
         hit.t = s;
         hit.normal = n.dot(d) > 0 ? Vec3f(-n) : n;
         hit.support = support;
@@ -425,6 +373,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     have_previous = true;
     t_previous = t;
     f_previous = f;
+    facing = n;
     // At least half the bandwidth, and up to 90% of the distance to the local plane (along the
     // ray the plane is at least that far): a surface is found unless two crossings lie closer
     // than the step. The last sample is at t_max, so a crossing just before it is not lost.
