@@ -43,5 +43,5 @@ cmake --build build-tsan -j "$jobs" --target sspc_core_tests sspc_geometry_tests
 stage_done "TSan build"
 TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 \
   ctest --test-dir build-tsan --output-on-failure -j "$jobs" --timeout 600 -R \
-  '^(Parallel|Normals\.ResultIsBitIdentical|ModelBuilder\.SelfSimilar|DecoderTest|ContainerTest\.Deterministic|Evaluate\.SameResult|Renderer|BrickScene)\.'
+  '^(Parallel|Normals\.ResultIsBitIdentical|ModelBuilder\.SelfSimilar|DecoderTest|ContainerTest\.Deterministic|Evaluate\.SameResult|Renderer\.(SameImageOnAnyThreadCount|PagedScene|CompressedSphere)|BrickScene)\.'
 stage_done "TSan tests"
