@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -63,6 +64,13 @@ struct RenderStats {
   std::uint64_t pages_read = 0;   // ... in how many bricks
 };
 
+// A ray's first hit on a scene's surface (RenderScene::intersect).
+struct RayHit {
+  float t = 0;         // along the ray, in the units of its direction
+  Vec3f normal;        // unit, facing the ray's origin
+  std::uint32_t id = 0;  // a compressed scene: the code word of the nearest decoded point
+};
+
 // What a renderer traces: built once (surfaces, acceleration structures), then rendered from any
 // number of cameras. Rendering is deterministic: an image does not depend on the thread count.
 class RenderScene {
@@ -96,6 +104,14 @@ class RenderScene {
   // Renders one frame; options.bandwidth is the scene's. Fills `stats` when given, including
   // the scene's build time and memory.
   virtual StatusOr<Image> render(const RenderOptions& options, RenderStats* stats = nullptr) const = 0;
+
+  // One ray against the scene's surface, for a host ray tracer (an Embree user geometry, a
+  // path tracer's secondary rays): the first hit along origin + t·direction for t in [t_min,
+  // t_max], or none. `direction` need not be unit length; t is in its units. Thread-safe; a
+  // compressed scene builds and caches the bricks the ray reaches, as render() does, and fails
+  // only when the model's data does.
+  virtual StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min = 0,
+                                                    float t_max = std::numeric_limits<float>::infinity()) const = 0;
 
   virtual Box3f bounds() const = 0;
   double build_seconds() const { return build_seconds_; }

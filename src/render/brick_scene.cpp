@@ -98,6 +98,64 @@ StatusOr<BrickScene::SurfacePtr> BrickScene::surface(std::size_t b) const {
   return built;
 }
 
+StatusOr<std::optional<RayHit>> BrickScene::trace(const Vec3f& eye, const Vec3f& d, float t_min, float t_max,
+                                                  bool want_id, std::uint64_t& evaluations) const {
+  const std::optional<RayHit> miss;
+  // The ray's interval in the grid of bricks.
+  float t0 = std::max(t_min, 0.0f), t1 = t_max;
+  for (int a = 0; a < 3; ++a) {
+    const float lo = origin_[a], hi = origin_[a] + static_cast<float>(dims_[a]) * edge_;
+    if (d[a] == 0) {
+      if (eye[a] < lo || eye[a] > hi) return miss;
+      continue;
+    }
+    float near = (lo - eye[a]) / d[a], far = (hi - eye[a]) / d[a];
+    if (near > far) std::swap(near, far);
+    t0 = std::max(t0, near);
+    t1 = std::min(t1, far);
+  }
+  if (!(t0 <= t1)) return miss;
+  // 3D DDA over the bricks, front to back: the first brick with a hit has the first hit.
+  const Vec3f start = eye + t0 * d;
+  int c[3], step[3];
+  float next[3], delta[3];
+  for (int a = 0; a < 3; ++a) {
+    c[a] = brick_coordinate(start[a], a);
+    step[a] = d[a] > 0 ? 1 : -1;
+    const float boundary = origin_[a] + static_cast<float>(c[a] + (d[a] > 0 ? 1 : 0)) * edge_;
+    next[a] = d[a] != 0 ? (boundary - eye[a]) / d[a] : std::numeric_limits<float>::infinity();
+    delta[a] = d[a] != 0 ? edge_ / std::abs(d[a]) : std::numeric_limits<float>::infinity();
+  }
+  float t = t0;
+  while (t <= t1) {
+    const int axis = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
+    const float exit = std::min(next[axis], t1);
+    const std::size_t b = brick_index(c[0], c[1], c[2]);
+    if (occupied_[b]) {
+      SSPC_ASSIGN_OR_RETURN(const SurfacePtr s, surface(b));
+      const auto hit = s->intersect(eye, d, t, exit);
+      if (hit) {
+        evaluations += static_cast<std::uint64_t>(hit->evaluations);
+        return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? s->nearest_id(eye + hit->t * d) : 0});
+      }
+    }
+    t = next[axis];
+    next[axis] += delta[axis];
+    c[axis] += step[axis];
+    if (c[axis] < 0 || c[axis] >= dims_[axis]) break;
+  }
+  return miss;
+}
+
+StatusOr<std::optional<RayHit>> BrickScene::intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
+                                                      float t_max) const {
+  SSPC_ASSIGN_OR_RETURN(const UnitRay ray, UnitRay::make(origin, direction, t_min, t_max));
+  std::uint64_t evaluations = 0;
+  SSPC_ASSIGN_OR_RETURN(std::optional<RayHit> hit, trace(ray.origin, ray.direction, ray.t_min, ray.t_max, true, evaluations));
+  if (hit) hit->t /= ray.scale;
+  return hit;
+}
+
 StatusOr<Image> BrickScene::render(const RenderOptions& o, RenderStats* stats) const {
   SSPC_RETURN_IF_ERROR(check_options(o));
   const PinholeCamera camera(o.camera, o.width, o.height);
@@ -108,58 +166,16 @@ StatusOr<Image> BrickScene::render(const RenderOptions& o, RenderStats* stats) c
   Image image = trace_image(
       o, camera,
       [&](int px, int py, Frame& frame, std::uint64_t& evaluations) {
-        const Vec3f& eye = camera.eye();
-        const Vec3f d = camera.direction(px, py);
-        // The ray's interval in the grid of bricks.
-        float t0 = 0, t1 = std::numeric_limits<float>::infinity();
-        for (int a = 0; a < 3; ++a) {
-          const float lo = origin_[a], hi = origin_[a] + static_cast<float>(dims_[a]) * edge_;
-          if (d[a] == 0) {
-            if (eye[a] < lo || eye[a] > hi) return false;
-            continue;
-          }
-          float near = (lo - eye[a]) / d[a], far = (hi - eye[a]) / d[a];
-          if (near > far) std::swap(near, far);
-          t0 = std::max(t0, near);
-          t1 = std::min(t1, far);
+        auto hit = trace(camera.eye(), camera.direction(px, py), 0, std::numeric_limits<float>::infinity(), want_id,
+                         evaluations);
+        if (!hit.ok()) {
+          std::lock_guard lock(failure_mutex);
+          if (failure.ok()) failure = hit.status();
+          return false;
         }
-        if (!(t0 <= t1)) return false;
-        // 3D DDA over the bricks, front to back: the first brick with a hit has the first hit.
-        const Vec3f start = eye + t0 * d;
-        int c[3], step[3];
-        float next[3], delta[3];
-        for (int a = 0; a < 3; ++a) {
-          c[a] = brick_coordinate(start[a], a);
-          step[a] = d[a] > 0 ? 1 : -1;
-          const float boundary = origin_[a] + static_cast<float>(c[a] + (d[a] > 0 ? 1 : 0)) * edge_;
-          next[a] = d[a] != 0 ? (boundary - eye[a]) / d[a] : std::numeric_limits<float>::infinity();
-          delta[a] = d[a] != 0 ? edge_ / std::abs(d[a]) : std::numeric_limits<float>::infinity();
-        }
-        float t = t0;
-        while (t <= t1) {
-          const int axis = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
-          const float exit = std::min(next[axis], t1);
-          const std::size_t b = brick_index(c[0], c[1], c[2]);
-          if (occupied_[b]) {
-            auto s = surface(b);
-            if (!s.ok()) {
-              std::lock_guard lock(failure_mutex);
-              if (failure.ok()) failure = s.status();
-              return false;
-            }
-            const auto hit = (*s)->intersect(eye, d, t, exit);
-            if (hit) {
-              evaluations += static_cast<std::uint64_t>(hit->evaluations);
-              frame.set(px, py, hit->t, hit->normal, want_id ? (*s)->nearest_id(eye + hit->t * d) : 0);
-              return true;
-            }
-          }
-          t = next[axis];
-          next[axis] += delta[axis];
-          c[axis] += step[axis];
-          if (c[axis] < 0 || c[axis] >= dims_[axis]) break;
-        }
-        return false;
+        if (!*hit) return false;
+        frame.set(px, py, (*hit)->t, (*hit)->normal, (*hit)->id);
+        return true;
       },
       stats);
   SSPC_RETURN_IF_ERROR(failure);

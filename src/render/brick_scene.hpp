@@ -31,6 +31,8 @@ class BrickScene : public RenderScene {
   using SurfacePtr = std::shared_ptr<const MlsSurface>;
 
   StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override;
+  StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
+                                            float t_max) const override;
   Box3f bounds() const override { return bounds_; }
 
  protected:
@@ -61,6 +63,10 @@ class BrickScene : public RenderScene {
  private:
   // The brick's surface, from the cache or built by load().
   StatusOr<SurfacePtr> surface(std::size_t b) const;
+  // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], walking the bricks front to back;
+  // `evaluations` gets the MLS evaluations; the id only when `want_id`.
+  StatusOr<std::optional<RayHit>> trace(const Vec3f& o, const Vec3f& d, float t_min, float t_max, bool want_id,
+                                        std::uint64_t& evaluations) const;
 
   Vec3f origin_;
   int dims_[3] = {1, 1, 1};

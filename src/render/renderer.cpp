@@ -64,6 +64,14 @@ class PointCloudScene final : public RenderScene {
     return image;
   }
 
+  StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
+                                            float t_max) const override {
+    SSPC_ASSIGN_OR_RETURN(const render::UnitRay ray, render::UnitRay::make(origin, direction, t_min, t_max));
+    const auto hit = surface_.intersect(ray.origin, ray.direction, ray.t_min, ray.t_max);
+    if (!hit) return std::optional<RayHit>();
+    return std::optional<RayHit>(RayHit{hit->t / ray.scale, hit->normal, 0});
+  }
+
   Box3f bounds() const override { return bounds_; }
 
   void set_build(double seconds) {

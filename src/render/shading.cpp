@@ -60,6 +60,21 @@ StatusOr<double> surface_spacing(const PointCloud& cloud) {
   return spacing;
 }
 
+StatusOr<UnitRay> UnitRay::make(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max) {
+  const float length = direction.norm();
+  if (!origin.allFinite() || !direction.allFinite() || !(length > 0) || !std::isfinite(length)) {
+    return invalid_argument("intersect: the ray needs a finite origin and a finite, non-zero direction");
+  }
+  if (std::isnan(t_min) || std::isnan(t_max)) return invalid_argument("intersect: t_min and t_max must not be NaN");
+  UnitRay ray;
+  ray.origin = origin;
+  ray.direction = direction / length;
+  ray.scale = length;
+  ray.t_min = t_min * length;
+  ray.t_max = t_max * length;
+  return ray;
+}
+
 Frame::Frame(int width, int height)
     : width_(width),
       height_(height),

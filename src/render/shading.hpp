@@ -21,6 +21,14 @@ Status check_options(const RenderOptions& options);
 // ray marches in steps of half the bandwidth, so a spacing of 0 would never move.
 StatusOr<double> surface_spacing(const PointCloud& cloud);
 
+// A ray of RenderScene::intersect with its direction made unit length (the surfaces march in
+// world units): t_unit = t · scale.
+struct UnitRay {
+  Vec3f origin, direction;
+  float t_min = 0, t_max = 0, scale = 1;
+  static StatusOr<UnitRay> make(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max);
+};
+
 class Frame {
  public:
   Frame(int width, int height);

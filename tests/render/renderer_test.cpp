@@ -248,6 +248,48 @@ TEST(Renderer, CompressedSphereAgreesWithTheUncompressedOne) {
   EXPECT_GT(stats.hits, 1500u);
 }
 
+// RenderScene::intersect is the renderer's own ray: at every 7th pixel its t equals the
+// frame's depth, for a cloud and for a compressed model; a direction twice as long halves t; a
+// ray that looks away misses; a zero direction is an error.
+TEST(Renderer, IntersectIsTheRayOfTheImage) {
+  SphereScene scene;
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  ASSERT_TRUE(encode(scene.cloud, path, EncodeOptions{}).ok());
+  auto opened = CompressedModel::open(path);
+  ASSERT_TRUE(opened.ok());
+  auto cloud_scene = RenderScene::from_point_cloud(scene.cloud);
+  auto model_scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(opened).value()));
+  ASSERT_TRUE(cloud_scene.ok() && model_scene.ok());
+  const render::PinholeCamera camera(scene.options.camera, scene.options.width, scene.options.height);
+  for (const auto* s : {cloud_scene->get(), model_scene->get()}) {
+    auto image = s->render(scene.options);
+    ASSERT_TRUE(image.ok());
+    int hits = 0;
+    for (int y = 0; y < scene.options.height; y += 7) {
+      for (int x = 0; x < scene.options.width; x += 7) {
+        const float depth = image->depth[static_cast<std::size_t>(y * scene.options.width + x)];
+        auto hit = s->intersect(camera.eye(), camera.direction(x, y));
+        ASSERT_TRUE(hit.ok()) << hit.status().to_string();
+        ASSERT_EQ(hit->has_value(), std::isfinite(depth)) << x << "," << y;
+        if (!*hit) continue;
+        ++hits;
+        EXPECT_NEAR((*hit)->t, depth, 1e-6f * depth);  // the direction normalised once more
+        EXPECT_NEAR((*hit)->normal.norm(), 1.0f, 1e-5f);
+        EXPECT_LT((*hit)->normal.dot(camera.direction(x, y)), 0.0f);
+        auto twice = s->intersect(camera.eye(), 2.0f * camera.direction(x, y));
+        ASSERT_TRUE(twice.ok() && twice->has_value());
+        EXPECT_NEAR((*twice)->t, 0.5f * depth, 1e-5f * depth);
+      }
+    }
+    EXPECT_GT(hits, 20);
+    auto away = s->intersect(camera.eye(), camera.eye());
+    ASSERT_TRUE(away.ok());
+    EXPECT_FALSE(away->has_value());
+    EXPECT_FALSE(s->intersect(camera.eye(), Vec3f::Zero()).ok());
+  }
+}
+
 // compare_images on a worked example: two hit pixels differing by 10 in every channel (MSE 100,
 // 10·log10(255²/100) = 28.13 dB), one pixel hit in the first only, one missed by both.
 TEST(Renderer, ImageComparisonOfAKnownDifference) {
