@@ -11,6 +11,7 @@
 
 #include "core/byte_reader.hpp"
 #include "core/varint.hpp"
+#include "format/block_codec_v1.hpp"
 #include "format/quantize.hpp"
 #include "format/range_coder.hpp"
 
@@ -295,7 +296,7 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
 Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& entry,
                              const ContainerHeader& header, DecodedCodewords& out) {
   ByteReader reader(raw);
-  const bool v1 = header.version == 1;
+  const bool version1 = header.version == 1;
   if (!codeword_points_fit(header, entry.point_count, raw.size())) {
     return payload_error(0, "point count " + std::to_string(entry.point_count) + " cannot fit in " +
                                 std::to_string(raw.size()) + " bytes");
@@ -328,8 +329,8 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     taken = *span;
     return true;
   };
-  std::uint64_t stream_size = 6 * n;
-  if (!v1 && !reader.read_varint(stream_size).ok()) {
+  std::uint64_t stream_size = v1::position_bytes(n);
+  if (!version1 && !reader.read_varint(stream_size).ok()) {
     return payload_error(reader.position(), "bad or truncated position stream size");
   }
   if (stream_size > raw.size() || !take(static_cast<std::size_t>(stream_size), pos_bytes) ||
@@ -353,21 +354,13 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     out.points[i] = Vec3f(xyz[0], xyz[1], xyz[2]);
     out.norm2[i] = xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2];
   };
-  if (header.version == 1) {
-    for (std::size_t i = 0; i < n; ++i) {
-      std::array<std::uint32_t, 3> v{};
-      for (std::size_t a = 0; a < 3; ++a) {
-        const std::size_t j = 3 * i + a;
-        v[a] = byte_at(pos_bytes, j) | (static_cast<std::uint32_t>(byte_at(pos_bytes, 3 * n + j)) << 8);
-        overflow |= v[a] >> pbits;
-      }
-      set_point(i, v);
-    }
+  std::vector<std::array<std::uint32_t, 3>> grid(n, {0, 0, 0});
+  if (version1) {
+    if (!v1::decode_positions(pos_bytes, pbits, grid)) overflow = 1;
   } else {
     RangeDecoder rc(pos_bytes);
     Decoding io{rc};
     PositionModels models;
-    std::vector<std::array<std::uint32_t, 3>> grid(n, {0, 0, 0});
     for (std::uint32_t c = 0; c < entry.count && overflow == 0; ++c) {
       const std::span<std::array<std::uint32_t, 3>> points(grid.data() + out.offsets[c],
                                                             out.offsets[c + 1] - out.offsets[c]);
@@ -376,11 +369,9 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     if (overflow == 0 && !rc.finish()) {
       return payload_error(0, "the position stream does not end where its size says");
     }
-    if (overflow == 0) {
-      for (std::size_t i = 0; i < n; ++i) set_point(i, grid[i]);
-    }
   }
   if (overflow != 0) return payload_error(0, "a position value exceeds position_bits");
+  for (std::size_t i = 0; i < n; ++i) set_point(i, grid[i]);
   if (header.has_normals()) {
     out.normals.resize(n);
     const int nbits = header.normal_bits;
@@ -465,7 +456,7 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
         for (std::size_t plane = 0; plane < 4; ++plane) {
           z |= std::uint64_t{byte_at(planes, (4 * a + plane) * m + k)} << (8 * plane);
         }
-      } else if (!reader.read_varint(z).ok()) {
+      } else if (!v1::read_translation_delta(reader, z)) {
         return payload_error(at, "bad or truncated translation");
       }
       const std::int64_t delta = zigzag_decode(z);
