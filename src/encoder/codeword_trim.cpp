@@ -47,8 +47,11 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
     const RigidTransform& t = model.patches[k].world_from_codeword;
     rotation[k] = decode_rotation(encode_rotation(t.rotation, h.rotation_bits), h.rotation_bits);
     std::array<std::int32_t, 3> grid{};
-    quantize_translation(t.translation, h.bounds_min, h.translation_step, grid);
-    centre[k] = dequantize_translation(grid, h.bounds_min, h.translation_step);
+    // Off the grid, the writer refuses the patch block (encode_patch_block) after trimming;
+    // until then the centre stays where the encoder put it.
+    centre[k] = quantize_translation(t.translation, h.bounds_min, h.translation_step, grid)
+                    ? dequantize_translation(grid, h.bounds_min, h.translation_step)
+                    : t.translation;
   });
   const float step = position_step(h.patch_radius, h.position_bits);
   std::vector<DecodedPoints> decoded(model.codebook.size());

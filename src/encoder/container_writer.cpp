@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <utility>
 #include <vector>
 
 #include <zstd.h>
@@ -55,21 +57,30 @@ struct BuiltBlock {
 // zstd without the frame fields the seek table already carries (size, checksum, dictionary),
 // or the raw payload when zstd does not shrink it or would shrink it more than a reader accepts
 // (kMaxBlockExpansion).
+struct ZstdCctxDeleter {
+  void operator()(ZSTD_CCtx* ctx) const { ZSTD_freeCCtx(ctx); }
+};
+
 Status compress_block(const std::string& raw, int level, BuiltBlock& block) {
   if (raw.size() > kMaxRawBlockSize) {
     return invalid_argument("a block's payload of " + std::to_string(raw.size()) +
                             " bytes exceeds the format's 64 MiB; use fewer items per block");
   }
   std::string compressed(ZSTD_compressBound(raw.size()), '\0');
-  ZSTD_CCtx* ctx = ZSTD_createCCtx();
+  const std::unique_ptr<ZSTD_CCtx, ZstdCctxDeleter> ctx(ZSTD_createCCtx());
   if (ctx == nullptr) return resource_exhausted("zstd: cannot create a compression context");
-  ZSTD_CCtx_setParameter(ctx, ZSTD_c_compressionLevel, level);
-  ZSTD_CCtx_setParameter(ctx, ZSTD_c_contentSizeFlag, 0);
-  ZSTD_CCtx_setParameter(ctx, ZSTD_c_checksumFlag, 0);
-  ZSTD_CCtx_setParameter(ctx, ZSTD_c_dictIDFlag, 0);
+  // A frame without these fields is what the seek table expects; a zstd that refuses to leave
+  // them out would write blocks a reader rejects, so a refusal is an error, not a default.
+  const std::pair<ZSTD_cParameter, int> parameters[] = {{ZSTD_c_compressionLevel, level},
+                                                        {ZSTD_c_contentSizeFlag, 0},
+                                                        {ZSTD_c_checksumFlag, 0},
+                                                        {ZSTD_c_dictIDFlag, 0}};
+  for (const auto& [parameter, value] : parameters) {
+    const std::size_t rc = ZSTD_CCtx_setParameter(ctx.get(), parameter, value);
+    if (ZSTD_isError(rc)) return internal_error(std::string("zstd: ") + ZSTD_getErrorName(rc));
+  }
   const std::size_t n =
-      ZSTD_compress2(ctx, compressed.data(), compressed.size(), raw.data(), raw.size());
-  ZSTD_freeCCtx(ctx);
+      ZSTD_compress2(ctx.get(), compressed.data(), compressed.size(), raw.data(), raw.size());
   if (ZSTD_isError(n)) return internal_error(std::string("zstd: ") + ZSTD_getErrorName(n));
   if (n < raw.size() && raw.size() <= n * kMaxBlockExpansion) {
     compressed.resize(n);

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/byte_reader.hpp"
+#include "core/check.hpp"
 #include "core/varint.hpp"
 #include "format/block_codec_v1.hpp"
 #include "format/quantize.hpp"
@@ -231,7 +232,10 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
     const std::vector<std::uint32_t> order = raster_order(grid);
     sorted.clear();
     for (std::uint32_t i : order) sorted.push_back(grid[i]);
-    walk_codeword(io, models, sorted, bits);
+    // The writer's own grid values lie within 2^bits (quantize_coordinate clamps), so its walk
+    // cannot leave the grid.
+    const bool walked = walk_codeword(io, models, sorted, bits);
+    SSPC_DCHECK(walked);
     for (std::uint32_t i : order) {
       if (header.has_normals()) {
         const Vec3f n = i < c.normals.size() ? c.normals[i] : Vec3f::UnitZ();
@@ -317,6 +321,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     }
     out.offsets.push_back(static_cast<std::uint32_t>(sum));
   }
+  SSPC_DCHECK(out.offsets.size() == std::size_t{entry.count} + 1);
   if (sum != n) {
     return payload_error(reader.position(), "code words hold " + std::to_string(sum) +
                                                 " points, the seek table says " +

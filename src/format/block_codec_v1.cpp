@@ -1,14 +1,14 @@
 // Version 1 block fields (block_codec_v1.hpp): read only.
 #include "format/block_codec_v1.hpp"
 
-#include <cassert>
+#include "core/check.hpp"
 
 namespace sspc::codec::v1 {
 
 bool decode_positions(std::span<const std::byte> planes, int bits,
                       std::span<std::array<std::uint32_t, 3>> grid) {
   const std::size_t n = grid.size();
-  assert(planes.size() == position_bytes(n));
+  SSPC_DCHECK(planes.size() == position_bytes(n));
   const auto byte_at = [&planes](std::size_t i) { return static_cast<std::uint32_t>(planes[i]); };
   std::uint32_t overflow = 0;
   for (std::size_t i = 0; i < n; ++i) {

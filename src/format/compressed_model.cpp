@@ -13,6 +13,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/check.hpp"
 #include "core/mapped_file.hpp"
 #include "core/parallel.hpp"
 #include "format/block_cache.hpp"
@@ -142,6 +143,7 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
                                          PointCloud& out) const {
   std::shared_ptr<const DecodedPatches> own;
   SSPC_RETURN_IF_ERROR(src.patches(k / patches_per_block(), own));
+  SSPC_DCHECK(k >= own->first && k - own->first < own->count());
   const std::size_t local = k - own->first;
   const std::uint32_t c = own->codeword[local];
   const Eigen::Matrix3f& rotation = own->rotation[local];
@@ -149,8 +151,10 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
 
   std::shared_ptr<const DecodedCodewords> words;
   SSPC_RETURN_IF_ERROR(src.codewords(c / codewords_per_block(), words));
+  SSPC_DCHECK(c >= words->first && c - words->first < words->count());
   const std::size_t w = c - words->first;
   const std::uint32_t begin = words->offsets[w], end = words->offsets[w + 1];
+  SSPC_DCHECK(begin <= end && end <= words->points.size());
   codec::CodewordView view;
   view.points = words->points.data() + begin;
   view.norm2 = words->norm2.data() + begin;
@@ -218,6 +222,7 @@ StatusOr<PatchRecord> CompressedModel::patch(std::size_t k) const {
   CachedSource src = impl_->cached();
   std::shared_ptr<const DecodedPatches> block;
   SSPC_RETURN_IF_ERROR(src.patches(k / impl_->patches_per_block(), block));
+  SSPC_DCHECK(k >= block->first && k - block->first < block->count());
   const std::size_t i = k - block->first;
   PatchRecord r;
   r.codeword = block->codeword[i];
@@ -234,6 +239,7 @@ StatusOr<CodeWordData> CompressedModel::codeword(std::size_t c) const {
   CachedSource src = impl_->cached();
   std::shared_ptr<const DecodedCodewords> block;
   SSPC_RETURN_IF_ERROR(src.codewords(c / impl_->codewords_per_block(), block));
+  SSPC_DCHECK(c >= block->first && c - block->first < block->count());
   const std::size_t w = c - block->first;
   const auto begin = static_cast<std::ptrdiff_t>(block->offsets[w]);
   const auto end = static_cast<std::ptrdiff_t>(block->offsets[w + 1]);

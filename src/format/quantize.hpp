@@ -44,7 +44,7 @@ Eigen::Matrix3f decode_rotation(const PackedRotation& packed, int bits);
 // --- Translations: an i32 grid of `step` relative to `origin` (the bounds' minimum).
 
 // False when a coordinate falls outside |v| < 2^24 (the writer reports it).
-bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
+[[nodiscard]] bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
                           std::array<std::int32_t, 3>& out);
 Vec3f dequantize_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin, float step);
 
