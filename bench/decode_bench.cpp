@@ -17,8 +17,8 @@
 
 #include <Eigen/Geometry>
 
-#include "codec/container_writer.hpp"
-#include "codec/encoded_model.hpp"
+#include "encoder/container_writer.hpp"
+#include "format/encoded_model.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"

@@ -17,6 +17,8 @@ if(SSPC_SANITIZE)
   target_compile_options(sspc_compile_options INTERFACE
     -fsanitize=${SSPC_SANITIZE} -fno-omit-frame-pointer -fno-sanitize-recover=all)
   target_link_options(sspc_compile_options INTERFACE -fsanitize=${SSPC_SANITIZE})
+  # SSPC_DCHECK (src/core/check.hpp) is on in sanitizer builds whatever the build type.
+  target_compile_definitions(sspc_compile_options INTERFACE SSPC_ENABLE_DCHECK)
 endif()
 # The fuzz build instruments everything for libFuzzer's coverage feedback; the fuzzer executables
 # add -fsanitize=fuzzer themselves (fuzz/CMakeLists.txt).

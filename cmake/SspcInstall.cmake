@@ -1,12 +1,18 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-install(TARGETS sspc EXPORT sspcTargets
+install(TARGETS sspc ${SSPC_LIBRARY_TARGETS} EXPORT sspcTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-install(DIRECTORY include/sspc DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+if(SSPC_BUILD_ENCODER)
+  install(DIRECTORY include/sspc DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+else()
+  # A decoder-only build installs no header whose functions it does not hold.
+  install(DIRECTORY include/sspc DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+          PATTERN encoder.hpp EXCLUDE PATTERN metrics.hpp EXCLUDE)
+endif()
 if(SSPC_BUILD_APPS)
   install(TARGETS sspc_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 endif()

@@ -8,8 +8,8 @@
 #include <span>
 #include <string>
 
-#include "codec/checksum.hpp"
-#include "codec/container_format.hpp"
+#include "format/checksum.hpp"
+#include "format/container_format.hpp"
 
 namespace sspc::fuzz {
 

@@ -20,11 +20,11 @@
 
 #include <zstd.h>
 
-#include "codec/block_codec.hpp"
-#include "codec/checksum.hpp"
-#include "codec/container_format.hpp"
-#include "codec/container_test_models.hpp"
-#include "codec/container_writer.hpp"
+#include "encoder/container_writer.hpp"
+#include "format/block_codec.hpp"
+#include "format/checksum.hpp"
+#include "format/container_format.hpp"
+#include "format/container_test_models.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/io.hpp"
 #include "test_util.hpp"

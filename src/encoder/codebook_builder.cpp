@@ -1,0 +1,462 @@
+// Greedy code-book construction (Hubo et al. 2007, §4.3).
+#include "encoder/codebook_builder.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numeric>
+
+#include <Eigen/Eigenvalues>
+
+#include "core/parallel.hpp"
+#include "encoder/canonical_frame.hpp"
+#include "encoder/codeword_surface.hpp"
+#include "encoder/icp.hpp"
+#include "encoder/spatial_order.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+// Patches as compressed rows of point indices.
+struct Patches {
+  std::vector<std::uint64_t> offsets;  // patches + 1
+  std::vector<std::uint32_t> indices;
+  std::span<const std::uint32_t> operator[](std::size_t k) const {
+    return {indices.data() + offsets[k], static_cast<std::size_t>(offsets[k + 1] - offsets[k])};
+  }
+  std::size_t size() const { return offsets.size() - 1; }
+};
+
+Patches gather_patches(const KdTree3& tree, std::span<const Vec3f> centres, float radius) {
+  std::vector<std::vector<std::uint32_t>> rows(centres.size());
+  parallel_for_ranges(0, centres.size(), 64, [&](std::size_t begin, std::size_t end) {
+    std::vector<Neighbor> near;
+    for (std::size_t k = begin; k < end; ++k) {
+      tree.radius(centres[k], radius, near, false);
+      rows[k].reserve(near.size());
+      for (const Neighbor& nb : near) rows[k].push_back(nb.index);
+      std::sort(rows[k].begin(), rows[k].end());
+    }
+  });
+  Patches patches;
+  patches.offsets.resize(centres.size() + 1, 0);
+  for (std::size_t k = 0; k < rows.size(); ++k) patches.offsets[k + 1] = patches.offsets[k] + rows[k].size();
+  patches.indices.resize(patches.offsets.back());
+  parallel_for(0, rows.size(), 256, [&](std::size_t k) {
+    std::copy(rows[k].begin(), rows[k].end(), patches.indices.begin() + static_cast<std::ptrdiff_t>(patches.offsets[k]));
+  });
+  return patches;
+}
+
+// Surface variation λ0 / (λ0 + λ1 + λ2) of the patch's points (Pauly et al. 2002): 0 on a plane,
+// up to 1/3 for isotropic scatter. The greedy selection takes the flattest patches first.
+float surface_variation(std::span<const Vec3f> positions, std::span<const std::uint32_t> indices) {
+  if (indices.size() < 3) return 0;
+  Vec3d mean = Vec3d::Zero();
+  for (std::uint32_t i : indices) mean += positions[i].cast<double>();
+  mean /= static_cast<double>(indices.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::uint32_t i : indices) {
+    const Vec3d d = positions[i].cast<double>() - mean;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(cov, Eigen::EigenvaluesOnly);
+  const Vec3d l = solver.eigenvalues().cwiseMax(0.0);
+  const double sum = l.sum();
+  return sum > 0 ? static_cast<float>(l(0) / sum) : 0.0f;
+}
+
+struct PatchFrames {
+  std::vector<RigidTransform> world_from_canonical;
+  std::vector<float> curvature;
+  std::vector<float> descriptors;  // patches × dimension
+};
+
+PatchFrames describe_patches(const PointCloud& cloud, const Patches& patches, const DescriptorParams& params) {
+  PatchFrames f;
+  const std::size_t n = patches.size();
+  const auto dim = static_cast<std::size_t>(params.dimension());
+  f.world_from_canonical.resize(n);
+  f.curvature.resize(n);
+  f.descriptors.resize(n * dim);
+  parallel_for_ranges(0, n, 64, [&](std::size_t begin, std::size_t end) {
+    std::vector<Vec3f> canonical_normals;
+    for (std::size_t k = begin; k < end; ++k) {
+      const auto idx = patches[k];
+      const CanonicalFrame frame = canonical_frame(cloud.positions, cloud.normals, idx);
+      f.world_from_canonical[k] = frame.world_from_canonical;
+      const Eigen::Matrix3f canonical_from_world = frame.world_from_canonical.rotation.transpose();
+      canonical_normals.clear();
+      for (std::uint32_t i : idx) canonical_normals.push_back(canonical_from_world * cloud.normals[i]);
+      compute_descriptor(canonical_normals, params, std::span<float>(f.descriptors.data() + k * dim, dim));
+      f.curvature[k] = surface_variation(cloud.positions, idx);
+    }
+  });
+  return f;
+}
+
+// The code word taken from patch `rep`: its points in the frame with origin at the centre and
+// the canonical rotation.
+CodeWord make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> idx,
+                       const RigidTransform& world_from_codeword) {
+  const RigidTransform codeword_from_world = world_from_codeword.inverse();
+  CodeWord cw;
+  cw.points.reserve(idx.size());
+  for (std::uint32_t i : idx) cw.points.push_back(codeword_from_world.apply(cloud.positions[i]));
+  if (cloud.has_normals()) {
+    cw.normals.reserve(idx.size());
+    for (std::uint32_t i : idx) cw.normals.push_back(codeword_from_world.apply_vector(cloud.normals[i]));
+  }
+  if (cloud.has_colors()) {
+    cw.colors.reserve(idx.size());
+    for (std::uint32_t i : idx) cw.colors.push_back(cloud.colors[i]);
+  }
+  return cw;
+}
+
+constexpr float kMaxDrift = 0.5f;  // in coverage radii
+
+struct Match {
+  bool accepted = false;
+  RigidTransform world_from_codeword;
+};
+
+// Aligns patch k (from its canonical frame) to the code word's surface and applies the paper's
+// error test, plus the checks the region decoder relies on: the code word covers the part of
+// the patch that k's region can claim and adds nothing off the surface, and its origin lands
+// near k's centre.
+Match try_match(const PointCloud& cloud, const KdTree3& points_tree, std::span<const std::uint32_t> idx,
+                const Vec3f& centre,
+                const RigidTransform& world_from_canonical, const RigidTransform& codeword_from_rep_canonical,
+                const CodewordSurface& surface, const CodebookOptions& o) {
+  // Start: k's canonical frame laid onto the representative's canonical frame.
+  const RigidTransform canonical_from_world = world_from_canonical.inverse();
+  std::vector<Vec3f> source;
+  source.reserve(idx.size());
+  // Start: the canonical rotations, with k's centre on the code word's origin.
+  RigidTransform start = codeword_from_rep_canonical * canonical_from_world;
+  start.translation -= start.apply(centre);
+  // ICP aligns a deterministic subset of at most kIcpPoints points (a stride through the
+  // patch): the 6 parameters are fixed long before 64 points, and the alignment was 70% of the
+  // encoder's time on dragon_scans with whole 400-point patches. The test below uses them all.
+  constexpr std::size_t kIcpPoints = 96;
+  const std::size_t stride = (idx.size() + kIcpPoints - 1) / kIcpPoints;
+  for (std::size_t j = 0; j < idx.size(); j += std::max<std::size_t>(stride, 1)) {
+    source.push_back(start.apply(cloud.positions[idx[j]]));
+  }
+  IcpOptions icp;
+  icp.max_pair_distance = std::max(3.0f * o.spacing, 0.3f * o.coverage_radius);
+  icp.converged_step = 0.01f * o.spacing;
+  icp.max_iterations = 20;
+  icp.abandon_rms = 3.0f * o.tau * o.spacing;  // hopeless: the test below needs RMS ≤ τ
+  icp.point_to_point_weight = 1.0f;
+  icp.lever_arm = o.patch_radius;
+  const IcpResult aligned = align_point_to_plane(source, surface, icp);
+
+  const RigidTransform codeword_from_world =
+      aligned.target_from_source * start;
+  const RigidTransform world_from_codeword = codeword_from_world.inverse();
+  Match m;
+  // The instance's region is the cell of where the code word's origin lands. ICP may slide a
+  // patch onto its copy (on exactly self-similar surfaces the copy is rarely centred where the
+  // patch is); build_codebook restores coverage afterwards. Beyond half the coverage radius the
+  // patch's points no longer surround the new region.
+  const Vec3f landed = world_from_codeword.translation;
+  if ((landed - centre).norm() > kMaxDrift * o.coverage_radius) return m;
+
+  // The test measures what the codec is judged by (docs/METRICS.md): within the region the
+  // instance will decode (the points within the coverage radius of its centre), the RMS
+  // distance from each source point to the nearest code-word point, and from each code-word
+  // point to the nearest source point. The paper's MLS residual sees only the distance to the
+  // surface: a code word sampled more sparsely than the patch, or offset along it, passed that
+  // test and cost dragon_scans 6 dB for a code-book ratio of 1.6. Besides the RMS, no more than
+  // 1% of either side may be farther than a hole (2.5 spacings): a code word must neither leave
+  // a hole in the patch nor put points where the surface has none (past a scan's edge).
+  const float core2 = o.coverage_radius * o.coverage_radius;
+  const float hole2 = (2.5f * o.spacing) * (2.5f * o.spacing);
+  double sse = 0;
+  std::size_t n = 0, holes = 0;
+  for (std::size_t j = 0; j < idx.size(); ++j) {
+    if ((cloud.positions[idx[j]] - landed).squaredNorm() > core2) continue;
+    float d2 = 0;
+    surface.tree().nearest(codeword_from_world.apply(cloud.positions[idx[j]]), &d2);
+    sse += static_cast<double>(d2);
+    holes += d2 > hole2 ? 1 : 0;
+    ++n;
+  }
+  const double tau2 = static_cast<double>(o.tau * o.spacing) * static_cast<double>(o.tau * o.spacing);
+  if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
+  const std::size_t source_core = n;
+  sse = 0;
+  n = 0;
+  holes = 0;
+  for (const Vec3f& p : surface.points()) {
+    if (p.squaredNorm() > core2) continue;
+    float d2 = 0;
+    points_tree.nearest(world_from_codeword.apply(p), &d2);
+    sse += static_cast<double>(d2);
+    holes += d2 > hole2 ? 1 : 0;
+    ++n;
+  }
+  if (n == 0 || sse > tau2 * static_cast<double>(n) || holes * 100 > n) return m;
+  // The instance decodes about as many points as the code word has in its region: a code word
+  // from a sparser or denser part of the scan (single against overlapping range scans) would
+  // change the density, which the nearest-point RMS tolerates up to τ. Within 10% either way.
+  if (n * 10 < source_core * 9 || n * 10 > source_core * 11) return m;
+  m.accepted = true;
+  m.world_from_codeword = world_from_codeword;
+  return m;
+}
+
+// The descriptors of the patches still in the pool, indexed for L1 k-NN queries. The pool only
+// shrinks, so the tree is rebuilt over the eligible patches once a quarter of its items have
+// left: queries then touch few stale items, and the rebuilds cost O(n log n) in all.
+struct DescriptorPool {
+  std::vector<std::uint32_t> ids;  // pool item → patch
+  std::vector<float> data;
+  std::unique_ptr<KdTreeL1> tree;
+
+  template <typename Eligible>
+  void rebuild(const std::vector<float>& descriptors, std::size_t dim, std::size_t n, Eligible eligible) {
+    tree.reset();
+    ids.clear();
+    data.clear();
+    for (std::uint32_t k = 0; k < n; ++k) {
+      if (!eligible(k)) continue;
+      ids.push_back(k);
+      data.insert(data.end(), descriptors.begin() + static_cast<std::ptrdiff_t>(k * dim),
+                  descriptors.begin() + static_cast<std::ptrdiff_t>((k + 1) * dim));
+    }
+    if (!ids.empty()) tree = std::make_unique<KdTreeL1>(data, dim);
+  }
+};
+
+// Matches may move an instance's origin (see try_match), and the decoder's regions are the cells
+// of the origins: every point must lie within the coverage radius of one, or its cell's code
+// word need not reach it. Points left uncovered get new patches of their own, greedily in index
+// order, each its own code word. Then the patches are put back in spatial order.
+std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree, const CodebookOptions& o,
+                            EncodedModel& model) {
+  std::vector<Vec3f> origins;
+  origins.reserve(model.patches.size());
+  for (const PatchInstance& p : model.patches) origins.push_back(p.region_centre());
+  std::vector<std::uint8_t> uncovered(cloud.size(), 0);
+  {
+    const KdTree3 origin_tree(origins);
+    const float r2 = o.coverage_radius * o.coverage_radius;
+    parallel_for(0, cloud.size(), 4096, [&](std::size_t i) {
+      float d2 = 0;
+      origin_tree.nearest(cloud.positions[i], &d2);
+      uncovered[i] = d2 > r2 ? 1 : 0;
+    });
+  }
+  std::vector<Vec3f> added;
+  const float r2 = o.coverage_radius * o.coverage_radius;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (uncovered[i] == 0) continue;
+    const Vec3f& p = cloud.positions[i];
+    bool covered = false;
+    for (const Vec3f& c : added) {
+      if ((c - p).squaredNorm() <= r2) {
+        covered = true;
+        break;
+      }
+    }
+    if (!covered) added.push_back(p);
+  }
+  std::vector<Neighbor> near;
+  std::vector<std::uint32_t> idx;
+  for (const Vec3f& c : added) {
+    points_tree.radius(c, o.patch_radius, near, false);
+    idx.clear();
+    for (const Neighbor& nb : near) idx.push_back(nb.index);
+    std::sort(idx.begin(), idx.end());
+    RigidTransform world_from_codeword;
+    world_from_codeword.rotation = canonical_frame(cloud.positions, cloud.normals, idx).world_from_canonical.rotation;
+    world_from_codeword.translation = c;
+    model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword});
+    model.codebook.push_back(make_codeword(cloud, idx, world_from_codeword));
+  }
+  if (!added.empty()) {
+    std::vector<Vec3f> all;
+    for (const PatchInstance& p : model.patches) all.push_back(p.region_centre());
+    const std::vector<std::uint32_t> order = spatial_order(all, cloud.bounding_box());
+    std::vector<PatchInstance> sorted;
+    sorted.reserve(order.size());
+    for (std::uint32_t k : order) sorted.push_back(model.patches[k]);
+    model.patches = std::move(sorted);
+  }
+  return added.size();
+}
+
+}  // namespace
+
+EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
+                            std::span<const Vec3f> centres, const CodebookOptions& o,
+                            CodebookStats* stats) {
+  Progress* progress = o.progress;
+  EncodedModel model;
+  model.patch_radius = o.patch_radius;
+  model.coverage_radius = o.coverage_radius;
+  model.spacing = o.spacing;
+  model.source_points = cloud.size();
+  model.has_normals = cloud.has_normals();
+  model.has_colors = cloud.has_colors();
+  model.bounds = cloud.bounding_box();
+  const std::size_t n = centres.size();
+
+  progress_begin(progress, "patches: gather, frames, descriptors", n, "patches");
+  const auto describe_start = std::chrono::steady_clock::now();
+  const Patches patches = gather_patches(points_tree, centres, o.patch_radius);
+  const PatchFrames frames = describe_patches(cloud, patches, o.descriptor);
+  progress_advance(progress, n);
+  progress_end(progress);
+  if (stats != nullptr) {
+    stats->seconds_descriptors = std::chrono::duration<double>(std::chrono::steady_clock::now() - describe_start).count();
+  }
+
+  const auto dim = static_cast<std::size_t>(o.descriptor.dimension());
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return frames.curvature[a] < frames.curvature[b] || (frames.curvature[a] == frames.curvature[b] && a < b);
+  });
+
+  constexpr std::uint32_t kUnassigned = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> assigned(n, kUnassigned);
+  // A rejected candidate returns to the pool (paper §4.3), but with a wide ε the same patch
+  // would be aligned again by every later representative near it in descriptor space: the
+  // encoder turned quadratic on dragon_scans. After kMaxAttempts failed alignments a patch waits
+  // to become a code word itself.
+  constexpr std::uint8_t kMaxAttempts = 4;
+  std::vector<std::uint8_t> attempts(n, 0);
+  model.patches.resize(n);
+  std::size_t tested = 0, accepted = 0, done = 0;
+  // Speculative batches: the greedy loop is sequential by nature (each representative removes
+  // patches from the pool), and on autzen most representatives have one or two candidates, so
+  // parallelising one representative's alignments left a core idle. Instead the next kBatch
+  // unassigned representatives in curvature order are aligned with their candidates in
+  // parallel, against the state at the batch's start; then the greedy loop is replayed over the
+  // batch sequentially with the current state, taking the precomputed alignments (an alignment
+  // depends only on the two patches). The state only grows (assigned stays assigned, attempts
+  // only increase), so every candidate the replay accepts was aligned in the parallel phase, and
+  // the result is exactly the sequential loop's, on any number of threads. Work is wasted only
+  // when a member is absorbed by an earlier one or a candidate is taken first.
+  constexpr std::size_t kBatch = 64;
+  // A representative aligns at most its kMaxCandidates nearest pool patches in descriptor space
+  // (those within ε). The paper aligns every patch within ε; on terrain (autzen) nearly all
+  // patches are flat and within ε of each other, and the radius queries alone made the loop
+  // quadratic (142 patches/s).
+  constexpr std::size_t kMaxCandidates = 48;
+  struct Speculation {
+    CodeWord codeword;
+    RigidTransform world_from_codeword;
+    std::vector<std::uint32_t> candidates;
+    std::vector<Match> matches;
+  };
+  std::vector<std::uint32_t> batch;
+  std::vector<Speculation> speculation(kBatch);
+  std::size_t next = 0;
+  const auto eligible = [&](std::uint32_t k) { return assigned[k] == kUnassigned && attempts[k] < kMaxAttempts; };
+  DescriptorPool pool;
+  std::size_t retired = 0;  // pool items no longer eligible since the pool was built
+  progress_begin(progress, "code book: greedy clustering", n, "patches");
+  while (next < order.size()) {
+    if (pool.ids.empty() || retired * 4 >= pool.ids.size()) {
+      pool.rebuild(frames.descriptors, dim, n, eligible);
+      retired = 0;
+    }
+    const std::size_t done_before = done;
+    batch.clear();
+    while (next < order.size() && batch.size() < kBatch) {
+      const std::uint32_t r = order[next++];
+      if (assigned[r] == kUnassigned) batch.push_back(r);
+    }
+    parallel_for(0, batch.size(), 1, [&](std::size_t b) {
+      const std::uint32_t rep = batch[b];
+      Speculation& sp = speculation[b];
+      // The code word's frame: the representative's canonical rotation about its centre.
+      sp.world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
+      sp.world_from_codeword.translation = centres[rep];
+      sp.codeword = make_codeword(cloud, patches[rep], sp.world_from_codeword);
+      std::vector<L1Neighbor> near;
+      sp.candidates.clear();
+      if (pool.tree) {
+        pool.tree->knn(std::span<const float>(frames.descriptors.data() + rep * dim, dim), kMaxCandidates, near);
+      }
+      for (const L1Neighbor& nb : near) {
+        const std::uint32_t k = pool.ids[nb.index];
+        if (nb.distance > o.epsilon || k == rep || !eligible(k)) continue;
+        // The match test keeps the region's point count within 10%; patches whose spheres'
+        // counts differ by more than a quarter practically never pass it, and skipping their
+        // alignment saved a third of autzen's clustering time.
+        const std::size_t mine = patches[k].size(), theirs = patches[rep].size();
+        if (4 * mine > 5 * theirs || 4 * theirs > 5 * mine) continue;
+        sp.candidates.push_back(k);
+      }
+      sp.matches.assign(sp.candidates.size(), Match{});
+      if (sp.candidates.empty()) return;
+      const CodewordSurface surface(sp.codeword.points, sp.codeword.normals);
+      const RigidTransform codeword_from_rep_canonical =
+          sp.world_from_codeword.inverse() * frames.world_from_canonical[rep];
+      for (std::size_t c = 0; c < sp.candidates.size(); ++c) {
+        const std::uint32_t k = sp.candidates[c];
+        sp.matches[c] = try_match(cloud, points_tree, patches[k], centres[k], frames.world_from_canonical[k],
+                                  codeword_from_rep_canonical, surface, o);
+      }
+    });
+    for (std::size_t b = 0; b < batch.size(); ++b) {
+      const std::uint32_t rep = batch[b];
+      if (assigned[rep] != kUnassigned) continue;  // absorbed by an earlier member
+      Speculation& sp = speculation[b];
+      const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
+      model.codebook.push_back(std::move(sp.codeword));
+      model.patches[rep] = {cw_index, sp.world_from_codeword};
+      if (attempts[rep] < kMaxAttempts) ++retired;
+      assigned[rep] = cw_index;
+      ++done;
+      // As the sequential loop: first the candidate list under the current state (counting
+      // the attempts), then the accepted ones.
+      std::size_t kept = 0;
+      for (std::size_t c = 0; c < sp.candidates.size(); ++c) {
+        const std::uint32_t k = sp.candidates[c];
+        if (!eligible(k)) continue;
+        if (++attempts[k] == kMaxAttempts) ++retired;
+        sp.candidates[kept] = k;
+        sp.matches[kept] = sp.matches[c];
+        ++kept;
+      }
+      tested += kept;
+      for (std::size_t c = 0; c < kept; ++c) {
+        if (!sp.matches[c].accepted) continue;
+        const std::uint32_t k = sp.candidates[c];
+        if (attempts[k] < kMaxAttempts) ++retired;  // else it retired when it ran out of attempts
+        assigned[k] = cw_index;
+        model.patches[k] = {cw_index, sp.matches[c].world_from_codeword};
+        ++accepted;
+        ++done;
+      }
+    }
+    progress_advance(progress, done - done_before);
+  }
+  progress_end(progress);
+  const std::size_t repaired = repair_coverage(cloud, points_tree, o, model);
+
+  if (stats != nullptr) {
+    stats->patches = n;
+    stats->codewords = model.codebook.size();
+    stats->candidates_tested = tested;
+    stats->accepted = accepted;
+    stats->repaired = repaired;
+    stats->mean_patch_points = n > 0 ? static_cast<double>(patches.indices.size()) / static_cast<double>(n) : 0.0;
+    std::size_t points = 0;
+    for (const CodeWord& cw : model.codebook) points += cw.points.size();
+    stats->codeword_points = points;
+  }
+  return model;
+}
+
+}  // namespace sspc::codec

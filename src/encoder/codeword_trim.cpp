@@ -1,0 +1,123 @@
+#include "encoder/codeword_trim.hpp"
+
+#include <cmath>
+#include <vector>
+
+#include "core/parallel.hpp"
+#include "format/quantize.hpp"
+#include "format/region_decoder.hpp"
+#include "sspc/neighbors.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+// A code word's points as a reader decodes them, and |q|² computed as the reader computes it.
+struct DecodedPoints {
+  std::vector<Vec3f> points;
+  std::vector<float> norm2;
+  float radius = 0;
+};
+
+DecodedPoints decode_positions(const CodeWord& w, float step, int bits) {
+  DecodedPoints d;
+  float max_norm2 = 0;
+  for (const Vec3f& p : w.points) {
+    float xyz[3];
+    for (int a = 0; a < 3; ++a) {
+      xyz[a] = dequantize_coordinate(quantize_coordinate(p[a], step, bits), step, bits);
+    }
+    d.points.emplace_back(xyz[0], xyz[1], xyz[2]);
+    d.norm2.push_back(xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2]);
+    max_norm2 = std::max(max_norm2, d.norm2.back());
+  }
+  d.radius = std::sqrt(max_norm2);
+  return d;
+}
+
+}  // namespace
+
+EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& h,
+                                   TrimStats* stats) {
+  const std::size_t n = model.patches.size();
+  // The transforms as a reader decodes them.
+  std::vector<Eigen::Matrix3f> rotation(n);
+  std::vector<Vec3f> centre(n);
+  parallel_for(0, n, 1024, [&](std::size_t k) {
+    const RigidTransform& t = model.patches[k].world_from_codeword;
+    rotation[k] = decode_rotation(encode_rotation(t.rotation, h.rotation_bits), h.rotation_bits);
+    std::array<std::int32_t, 3> grid{};
+    // Off the grid, the writer refuses the patch block (encode_patch_block) after trimming;
+    // until then the centre stays where the encoder put it.
+    centre[k] = quantize_translation(t.translation, h.bounds_min, h.translation_step, grid)
+                    ? dequantize_translation(grid, h.bounds_min, h.translation_step)
+                    : t.translation;
+  });
+  const float step = position_step(h.patch_radius, h.position_bits);
+  std::vector<DecodedPoints> decoded(model.codebook.size());
+  parallel_for(0, decoded.size(), 16, [&](std::size_t c) {
+    decoded[c] = decode_positions(model.codebook[c], step, h.position_bits);
+  });
+
+  // Which points some instance claims. Each patch marks its own code word's points; patches
+  // sharing a code word write `true` to the same bytes, which is idempotent, but a data race all
+  // the same: group the patches by code word and let one task own each code word.
+  std::vector<std::vector<std::uint32_t>> instances(model.codebook.size());
+  for (std::size_t k = 0; k < n; ++k) instances[model.patches[k].codeword].push_back(static_cast<std::uint32_t>(k));
+  const KdTree3 centre_tree(centre);
+  std::vector<std::vector<bool>> claimed(model.codebook.size());
+  parallel_for(0, model.codebook.size(), 8, [&](std::size_t c) {
+    const DecodedPoints& d = decoded[c];
+    std::vector<bool>& keep = claimed[c];
+    keep.assign(d.points.size(), false);
+    RegionTest region;
+    std::vector<Neighbor> near;
+    std::vector<Neighbour> neighbours;
+    const float threshold2 = neighbour_threshold2(d.radius);
+    for (const std::uint32_t k : instances[c]) {
+      // A slightly larger query, then the reader's exact test, so that N_k is exactly its N_k.
+      centre_tree.radius(centre[k], 1.001f * std::sqrt(threshold2), near, false);
+      neighbours.clear();
+      for (const Neighbor& nb : near) {
+        if (nb.index != k && centre_distance2(centre[nb.index], centre[k]) <= threshold2) {
+          neighbours.push_back({nb.index, centre[nb.index]});
+        }
+      }
+      region.reset(k, rotation[k], centre[k], neighbours);
+      for (std::size_t i = 0; i < d.points.size(); ++i) {
+        if (!keep[i] && region.claims(d.points[i], d.norm2[i])) keep[i] = true;
+      }
+    }
+  });
+
+  EncodedModel out;
+  out.patch_radius = model.patch_radius;
+  out.coverage_radius = model.coverage_radius;
+  out.spacing = model.spacing;
+  out.source_points = model.source_points;
+  out.has_normals = model.has_normals;
+  out.has_colors = model.has_colors;
+  out.bounds = model.bounds;
+  out.patches = model.patches;
+  out.codebook.resize(model.codebook.size());
+  std::uint64_t before = 0, after = 0;
+  for (std::size_t c = 0; c < model.codebook.size(); ++c) {
+    const CodeWord& w = model.codebook[c];
+    CodeWord& t = out.codebook[c];
+    for (std::size_t i = 0; i < w.points.size(); ++i) {
+      if (!claimed[c][i]) continue;
+      t.points.push_back(w.points[i]);
+      if (i < w.normals.size()) t.normals.push_back(w.normals[i]);
+      if (i < w.colors.size()) t.colors.push_back(w.colors[i]);
+    }
+    before += w.points.size();
+    after += t.points.size();
+  }
+  if (stats != nullptr) {
+    stats->points_before = before;
+    stats->points_after = after;
+  }
+  return out;
+}
+
+}  // namespace sspc::codec

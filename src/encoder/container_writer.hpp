@@ -1,0 +1,59 @@
+// Writes an EncodedModel as an .sspc container (docs/FORMAT.md): quantises the code book and the
+// patch transforms, cuts them into independently decodable blocks, compresses each with zstd and
+// writes the seek tables that make random access possible.
+//
+// The output is deterministic: the same model and options give the same bytes on any machine and
+// any thread count (blocks are compressed in parallel but each on its own and in a fixed place).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "format/encoded_model.hpp"
+#include "sspc/status.hpp"
+
+namespace sspc::codec {
+
+// The container's knobs; the encoder's level table fills them. FORMAT.md says why the defaults
+// are what they are.
+struct QuantOptions {
+  int position_bits = 12;      // code-word coordinates; step = 2·patch_radius / 2^bits
+  int normal_bits = 10;        // per octahedral component
+  int rotation_bits = 13;      // per smallest-three component: error < the position step
+  float translation_step = 0;  // 0: spacing / 64 (patch_radius / 256 when spacing is 0)
+  std::uint32_t patches_per_block = 64;   // bench/decode_bench: see FORMAT.md
+  std::uint32_t codewords_per_block = 32;
+  int zstd_level = 19;
+  // Drop the code-word points no instance's region claims (codec/codeword_trim.hpp): the
+  // default decode is unchanged, the overlap decode no longer sees whole spheres.
+  bool trim_unclaimed = false;
+};
+
+// Bytes per part of the written file.
+struct ContainerStats {
+  std::uint64_t file_bytes = 0;
+  std::uint64_t header_bytes = 0;
+  std::uint64_t codebook_bytes = 0;  // code-book blocks as stored
+  std::uint64_t codebook_seek_bytes = 0;
+  std::uint64_t patch_bytes = 0;  // patch blocks as stored
+  std::uint64_t patch_seek_bytes = 0;
+  std::uint64_t codebook_raw_bytes = 0;  // before zstd
+  std::uint64_t patch_raw_bytes = 0;
+  std::uint32_t codebook_blocks = 0;
+  std::uint32_t patch_blocks = 0;
+  std::uint64_t codeword_points = 0;            // stored
+  std::uint64_t untrimmed_codeword_points = 0;  // before trim_unclaimed (0 when off)
+};
+
+// The container's bytes. Fails with kInvalidArgument for a model that breaks its own invariants
+// (a code-word index out of range, attribute arrays of the wrong length, a non-positive radius)
+// or options out of range.
+StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOptions& options,
+                                       ContainerStats* stats = nullptr);
+
+// The same written atomically to `path` (a temporary file renamed over it).
+StatusOr<ContainerStats> write_container(const EncodedModel& model, const QuantOptions& options,
+                                         const std::filesystem::path& path);
+
+}  // namespace sspc::codec

@@ -1,0 +1,97 @@
+#include "encoder/model_builder.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "core/parallel.hpp"
+#include "sspc/neighbors.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+void number_codewords_by_first_use(EncodedModel& model) {
+  constexpr std::uint32_t kUnused = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> new_index(model.codebook.size(), kUnused);
+  std::vector<CodeWord> codebook;
+  codebook.reserve(model.codebook.size());
+  for (PatchInstance& p : model.patches) {
+    std::uint32_t& to = new_index[p.codeword];
+    if (to == kUnused) {
+      to = static_cast<std::uint32_t>(codebook.size());
+      codebook.push_back(std::move(model.codebook[p.codeword]));
+    }
+    p.codeword = to;
+  }
+  model.codebook = std::move(codebook);  // a code word no patch uses is dropped
+}
+
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points) {
+  // First guess: a disc of area patch_points · spacing².
+  double radius = spacing * std::sqrt(static_cast<double>(patch_points) / std::numbers::pi);
+  const std::size_t samples = std::min<std::size_t>(cloud.size(), 2000);
+  const std::size_t stride = cloud.size() / samples;
+  // Two corrections: the count grows like r² on a surface.
+  for (int round = 0; round < 2; ++round) {
+    const auto r = static_cast<float>(radius);
+    const double total = deterministic_sum<double>(0, samples, [&](std::size_t s) {
+      std::vector<Neighbor> near;
+      tree.radius(cloud.positions[s * stride], r, near, false);
+      return static_cast<double>(near.size());
+    }, 64);
+    const double mean = total / static_cast<double>(samples);
+    if (mean <= 0) break;
+    radius *= std::sqrt(static_cast<double>(patch_points) / mean);
+  }
+  return static_cast<float>(radius);
+}
+
+StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
+  const KdTree3 tree(cloud.positions);
+  // Of the distinct positions: a radius of 0 would divide by zero downstream.
+  const double spacing = nominal_spacing(tree);
+  SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
+  const float patch_radius = radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
+  const float coverage_radius = patch_radius / kPatchOverCoverage;
+
+  auto start = std::chrono::steady_clock::now();
+  CentreOptions centre_options;
+  centre_options.coverage_radius = coverage_radius;
+  centre_options.seed = options.seed;
+  centre_options.progress = options.progress;
+  CentreStats centre_stats;
+  const std::vector<Vec3f> centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
+  const double seconds_centres = seconds_since(start);
+
+  start = std::chrono::steady_clock::now();
+  CodebookOptions cb;
+  cb.patch_radius = patch_radius;
+  cb.coverage_radius = coverage_radius;
+  cb.spacing = static_cast<float>(spacing);
+  cb.epsilon = options.level.epsilon;
+  cb.tau = options.level.tau;
+  cb.progress = options.progress;
+  CodebookStats codebook_stats;
+  EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);
+  number_codewords_by_first_use(model);
+  if (stats != nullptr) {
+    stats->spacing = spacing;
+    stats->patch_radius = static_cast<double>(patch_radius);
+    stats->coverage_radius = static_cast<double>(coverage_radius);
+    stats->centres = centre_stats;
+    stats->codebook = codebook_stats;
+    stats->seconds_centres = seconds_centres;
+    stats->seconds_codebook = seconds_since(start);
+  }
+  return model;
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,54 @@
+// The encoder's geometry pipeline (Hubo et al. 2007, §4.1–4.3) from a cloud with normals to the in-memory
+// compressed model: patch size from the point density, centres, patches, code book.
+#pragma once
+
+#include <cstdint>
+
+#include "encoder/codebook_builder.hpp"
+#include "encoder/levels.hpp"
+#include "encoder/patch_centres.hpp"
+#include "format/encoded_model.hpp"
+#include "sspc/point_cloud.hpp"
+#include "sspc/progress.hpp"
+
+namespace sspc::codec {
+
+// Code words hold the points within patch_radius of a centre; centres cover every point within
+// coverage_radius = patch_radius / kPatchOverCoverage (after matching, the coverage repair in
+// codebook_builder restores that for the instances' final origins). The margin lets a code word
+// reach past the region of an instance whose origin a match moved (up to half a coverage
+// radius), and the writer trims what no instance decodes.
+inline constexpr float kPatchOverCoverage = 1.25f;
+
+struct BuildOptions {
+  LevelParams level;
+  std::uint64_t seed = 1;
+  Progress* progress = nullptr;
+};
+
+struct BuildStats {
+  double spacing = 0;
+  double patch_radius = 0;
+  double coverage_radius = 0;
+  CentreStats centres;
+  CodebookStats codebook;
+  double seconds_centres = 0;
+  double seconds_codebook = 0;
+};
+
+// `cloud` must have unit normals and at least 2 distinct points.
+StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);
+
+// Renumbers the code words in the order patches (in file order, which is spatial) first use
+// them. The greedy builder numbers them by curvature, so neighbouring patches' indices were far
+// apart; in first-use order most patches of a sparse code book refer to the next new code word,
+// and a patch block's index deltas cost zstd almost nothing. Code-book blocks then also follow
+// the patches' spatial order, so a region decode touches fewer of them.
+void number_codewords_by_first_use(EncodedModel& model);
+
+// The radius whose sphere holds `patch_points` points on average, measured on a deterministic
+// sample of the cloud (the nominal spacing alone misjudges the area per point on noisy or
+// layered scans).
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points);
+
+}  // namespace sspc::codec

@@ -1,0 +1,451 @@
+// sspc::CompressedModel: random-access decoding of an .sspc file (docs/FORMAT.md, "Decoding:
+// regions").
+//
+// Blocks come from one of two sources: a shared LRU cache for random queries (decode_patch,
+// decode_box, patch, codeword: what a renderer calls from many threads), or all blocks decoded
+// up front for decode_all. Both feed the same per-patch routine, decode_one(), which is why the
+// three decodes agree bit for bit.
+#include "sspc/compressed_model.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "core/check.hpp"
+#include "core/mapped_file.hpp"
+#include "core/parallel.hpp"
+#include "format/block_cache.hpp"
+#include "format/block_index.hpp"
+#include "format/container_reader.hpp"
+#include "format/region_decoder.hpp"
+
+namespace sspc {
+
+using codec::DecodedCodewords;
+using codec::DecodedPatches;
+
+namespace {
+
+// Relative slack for the spatial searches: far above float rounding (~6e-8), far below any
+// distance that matters, so the searches return a superset of what the exact rules select.
+constexpr float kSearchSlack = 1e-5f;
+
+class BlockSource {
+ public:
+  virtual ~BlockSource() = default;
+  virtual Status patches(std::size_t b, std::shared_ptr<const DecodedPatches>& out) = 0;
+  virtual Status codewords(std::size_t b, std::shared_ptr<const DecodedCodewords>& out) = 0;
+};
+
+// The status of a read from the mapped file: if the file shrank under the mapping, the read saw
+// zeros where the file was cut (core/mapped_file.hpp), and that, not the checksum or the count
+// the zeros broke, is what the caller is told. A model built from bytes in memory has no
+// mapping, and an empty MappedFile is always intact.
+Status after_read(const MappedFile& mapped, Status read) {
+  SSPC_RETURN_IF_ERROR(mapped.check_intact());
+  return read;
+}
+
+class CachedSource final : public BlockSource {
+ public:
+  CachedSource(const codec::ContainerReader& reader, const MappedFile& mapped,
+               codec::BlockCache<DecodedPatches>& patches,
+               codec::BlockCache<DecodedCodewords>& codewords)
+      : reader_(reader), mapped_(mapped), patch_cache_(patches), codeword_cache_(codewords) {}
+  Status patches(std::size_t b, std::shared_ptr<const DecodedPatches>& out) override {
+    out = patch_cache_.find(b);
+    if (out) return Status();
+    auto block = std::make_shared<DecodedPatches>();
+    SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_patches(b, *block)));
+    patch_cache_.insert(b, block);
+    out = std::move(block);
+    return Status();
+  }
+  Status codewords(std::size_t b, std::shared_ptr<const DecodedCodewords>& out) override {
+    out = codeword_cache_.find(b);
+    if (out) return Status();
+    auto block = std::make_shared<DecodedCodewords>();
+    SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_codewords(b, *block)));
+    codeword_cache_.insert(b, block);
+    out = std::move(block);
+    return Status();
+  }
+
+ private:
+  const codec::ContainerReader& reader_;
+  const MappedFile& mapped_;
+  codec::BlockCache<DecodedPatches>& patch_cache_;
+  codec::BlockCache<DecodedCodewords>& codeword_cache_;
+};
+
+}  // namespace
+
+struct CompressedModel::Impl {
+  MappedFile mapped;
+  std::string owned;
+  codec::ContainerReader reader;
+  codec::BlockIndex index;
+  float coordinate_scale = 0;  // largest |coordinate| of any block box: scales the search slack
+  mutable codec::BlockCache<DecodedPatches> patch_cache{4096};
+  mutable codec::BlockCache<DecodedCodewords> codeword_cache{512};
+
+  Status init(std::span<const std::byte> bytes, std::string name) {
+    SSPC_ASSIGN_OR_RETURN(reader, codec::ContainerReader::open(bytes, std::move(name)));
+    std::vector<Box3f> boxes;
+    boxes.reserve(reader.patch_blocks().size());
+    for (const codec::BlockEntry& e : reader.patch_blocks()) {
+      boxes.push_back(e.box);
+      coordinate_scale = std::max(
+          {coordinate_scale, e.box.min().cwiseAbs().maxCoeff(), e.box.max().cwiseAbs().maxCoeff()});
+    }
+    index = codec::BlockIndex(boxes);
+    return Status();
+  }
+
+  CachedSource cached() const { return CachedSource(reader, mapped, patch_cache, codeword_cache); }
+  std::uint32_t patches_per_block() const { return reader.header().patches_per_block; }
+  std::uint32_t codewords_per_block() const { return reader.header().codewords_per_block; }
+
+  Status decode_one(BlockSource& src, std::size_t k, bool overlap, const Box3f* clip,
+                    std::vector<codec::Neighbour>& neighbours, PointCloud& out) const;
+};
+
+namespace {
+
+class PreloadedSource final : public BlockSource {
+ public:
+  std::vector<std::shared_ptr<const DecodedPatches>> patch_blocks;
+  std::vector<std::shared_ptr<const DecodedCodewords>> codeword_blocks;
+
+  Status patches(std::size_t b, std::shared_ptr<const DecodedPatches>& out) override {
+    out = patch_blocks[b];
+    return Status();
+  }
+  Status codewords(std::size_t b, std::shared_ptr<const DecodedCodewords>& out) override {
+    out = codeword_blocks[b];
+    return Status();
+  }
+};
+
+void append(PointCloud& dst, const PointCloud& src) {
+  dst.positions.insert(dst.positions.end(), src.positions.begin(), src.positions.end());
+  dst.normals.insert(dst.normals.end(), src.normals.begin(), src.normals.end());
+  dst.colors.insert(dst.colors.end(), src.colors.begin(), src.colors.end());
+}
+
+}  // namespace
+
+Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool overlap,
+                                         const Box3f* clip,
+                                         std::vector<codec::Neighbour>& neighbours,
+                                         PointCloud& out) const {
+  std::shared_ptr<const DecodedPatches> own;
+  SSPC_RETURN_IF_ERROR(src.patches(k / patches_per_block(), own));
+  SSPC_DCHECK(k >= own->first && k - own->first < own->count());
+  const std::size_t local = k - own->first;
+  const std::uint32_t c = own->codeword[local];
+  const Eigen::Matrix3f& rotation = own->rotation[local];
+  const Vec3f centre = own->centre[local];
+
+  std::shared_ptr<const DecodedCodewords> words;
+  SSPC_RETURN_IF_ERROR(src.codewords(c / codewords_per_block(), words));
+  SSPC_DCHECK(c >= words->first && c - words->first < words->count());
+  const std::size_t w = c - words->first;
+  const std::uint32_t begin = words->offsets[w], end = words->offsets[w + 1];
+  SSPC_DCHECK(begin <= end && end <= words->points.size());
+  codec::CodewordView view;
+  view.points = words->points.data() + begin;
+  view.norm2 = words->norm2.data() + begin;
+  view.normals = words->normals.empty() ? nullptr : words->normals.data() + begin;
+  view.colors = words->colors.empty() ? nullptr : words->colors.data() + begin;
+  view.size = end - begin;
+
+  neighbours.clear();
+  if (!overlap) {
+    const float threshold2 = codec::neighbour_threshold2(words->radius[w]);
+    const float reach =
+        std::sqrt(threshold2) * 1.01f + kSearchSlack * (coordinate_scale + words->radius[w]);
+    thread_local std::vector<std::size_t> blocks;
+    blocks.clear();
+    index.for_each_near(centre, reach * reach, [&](std::size_t b) { blocks.push_back(b); });
+    for (std::size_t b : blocks) {
+      std::shared_ptr<const DecodedPatches> near;
+      SSPC_RETURN_IF_ERROR(src.patches(b, near));
+      for (std::uint32_t i = 0; i < near->count(); ++i) {
+        const std::uint32_t j = near->first + i;
+        if (j == k) continue;
+        if (codec::centre_distance2(near->centre[i], centre) <= threshold2) {
+          neighbours.push_back({j, near->centre[i]});
+        }
+      }
+    }
+  }
+  codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, overlap,
+                    clip, out);
+  return Status();
+}
+
+CompressedModel::CompressedModel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+CompressedModel::CompressedModel(CompressedModel&&) noexcept = default;
+CompressedModel& CompressedModel::operator=(CompressedModel&&) noexcept = default;
+CompressedModel::~CompressedModel() = default;
+
+StatusOr<CompressedModel> CompressedModel::open(const std::filesystem::path& path) {
+  auto impl = std::make_unique<Impl>();
+  SSPC_ASSIGN_OR_RETURN(impl->mapped, MappedFile::open(path));
+  SSPC_RETURN_IF_ERROR(after_read(impl->mapped, impl->init(impl->mapped.bytes(), path.string())));
+  return CompressedModel(std::move(impl));
+}
+
+StatusOr<CompressedModel> CompressedModel::from_bytes(std::string bytes) {
+  auto impl = std::make_unique<Impl>();
+  impl->owned = std::move(bytes);
+  const auto span = std::as_bytes(std::span<const char>(impl->owned.data(), impl->owned.size()));
+  SSPC_RETURN_IF_ERROR(impl->init(span, "<memory>"));
+  return CompressedModel(std::move(impl));
+}
+
+std::size_t CompressedModel::patch_count() const {
+  return impl_->reader.header().patch_count;
+}
+std::size_t CompressedModel::codeword_count() const {
+  return impl_->reader.header().codeword_count;
+}
+
+StatusOr<PatchRecord> CompressedModel::patch(std::size_t k) const {
+  if (k >= patch_count()) {
+    return invalid_argument("patch " + std::to_string(k) + " out of range (the model has " +
+                            std::to_string(patch_count()) + ")");
+  }
+  CachedSource src = impl_->cached();
+  std::shared_ptr<const DecodedPatches> block;
+  SSPC_RETURN_IF_ERROR(src.patches(k / impl_->patches_per_block(), block));
+  SSPC_DCHECK(k >= block->first && k - block->first < block->count());
+  const std::size_t i = k - block->first;
+  PatchRecord r;
+  r.codeword = block->codeword[i];
+  r.rotation = block->rotation[i];
+  r.translation = block->centre[i];
+  return r;
+}
+
+StatusOr<CodeWordData> CompressedModel::codeword(std::size_t c) const {
+  if (c >= codeword_count()) {
+    return invalid_argument("code word " + std::to_string(c) + " out of range (the model has " +
+                            std::to_string(codeword_count()) + ")");
+  }
+  CachedSource src = impl_->cached();
+  std::shared_ptr<const DecodedCodewords> block;
+  SSPC_RETURN_IF_ERROR(src.codewords(c / impl_->codewords_per_block(), block));
+  SSPC_DCHECK(c >= block->first && c - block->first < block->count());
+  const std::size_t w = c - block->first;
+  const auto begin = static_cast<std::ptrdiff_t>(block->offsets[w]);
+  const auto end = static_cast<std::ptrdiff_t>(block->offsets[w + 1]);
+  CodeWordData out;
+  out.radius = block->radius[w];
+  out.points.positions.assign(block->points.begin() + begin, block->points.begin() + end);
+  if (!block->normals.empty()) {
+    out.points.normals.assign(block->normals.begin() + begin, block->normals.begin() + end);
+  }
+  if (!block->colors.empty()) {
+    out.points.colors.assign(block->colors.begin() + begin, block->colors.begin() + end);
+  }
+  return out;
+}
+
+// A decoded cloud in the world of the file. The metadata stays with metadata(): a renderer
+// decodes patches by the thousand and needs no copy of a CRS with each.
+PointCloud CompressedModel::placed(PointCloud cloud) const {
+  cloud.origin = impl_->reader.metadata().origin;
+  return cloud;
+}
+
+Vec3d CompressedModel::origin() const { return impl_->reader.metadata().origin; }
+
+const CloudMetadata& CompressedModel::metadata() const { return impl_->reader.metadata().cloud; }
+
+StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
+                                                   const DecodeOptions& options) const {
+  if (k >= patch_count()) {
+    return invalid_argument("patch " + std::to_string(k) + " out of range (the model has " +
+                            std::to_string(patch_count()) + ")");
+  }
+  CachedSource src = impl_->cached();
+  PointCloud out;
+  thread_local std::vector<codec::Neighbour> neighbours;
+  SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options.overlap, nullptr, neighbours, out));
+  if (options.patch_of != nullptr) options.patch_of->assign(out.size(), static_cast<std::uint32_t>(k));
+  return placed(std::move(out));
+}
+
+StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
+                                                 const DecodeOptions& options) const {
+  if (!box.min().allFinite() || !box.max().allFinite()) {
+    return invalid_argument("decode_box: the box is not finite");
+  }
+  PointCloud out;
+  if (options.patch_of != nullptr) options.patch_of->clear();
+  if (box.isEmpty()) return placed(std::move(out));
+  const codec::ContainerHeader& h = impl_->reader.header();
+  // A patch's points lie within its code word's radius (≤ codeword_radius) of its centre.
+  const float scale = std::max(
+      {impl_->coordinate_scale, box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff()});
+  const float reach = h.codeword_radius * 1.01f + kSearchSlack * (scale + h.codeword_radius);
+  const float reach2 = reach * reach;
+  std::vector<std::size_t> blocks;
+  impl_->index.for_each_meeting(box, reach2, [&](std::size_t b) { blocks.push_back(b); });
+
+  progress_begin(options.progress, "decoding box", blocks.size(), "blocks");
+  CachedSource src = impl_->cached();
+  std::vector<codec::Neighbour> neighbours;
+  for (std::size_t b : blocks) {
+    std::shared_ptr<const DecodedPatches> block;
+    SSPC_RETURN_IF_ERROR(src.patches(b, block));
+    for (std::uint32_t i = 0; i < block->count(); ++i) {
+      if (box.squaredExteriorDistance(block->centre[i]) > reach2) continue;
+      SSPC_RETURN_IF_ERROR(
+          impl_->decode_one(src, block->first + i, options.overlap, &box, neighbours, out));
+      if (options.patch_of != nullptr) options.patch_of->resize(out.size(), block->first + i);
+    }
+    progress_advance(options.progress, 1);
+  }
+  progress_end(options.progress);
+  return placed(std::move(out));
+}
+
+StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) const {
+  const codec::ContainerReader& reader = impl_->reader;
+  const std::size_t p_blocks = reader.patch_blocks().size();
+  const std::size_t c_blocks = reader.codebook_blocks().size();
+  PreloadedSource src;
+  src.patch_blocks.resize(p_blocks);
+  src.codeword_blocks.resize(c_blocks);
+  std::vector<Status> status(p_blocks + c_blocks);
+  parallel_for(0, p_blocks + c_blocks, 1, [&](std::size_t i) {
+    if (i < p_blocks) {
+      auto block = std::make_shared<DecodedPatches>();
+      status[i] = reader.read_patches(i, *block);
+      src.patch_blocks[i] = std::move(block);
+    } else {
+      auto block = std::make_shared<DecodedCodewords>();
+      status[i] = reader.read_codewords(i - p_blocks, *block);
+      src.codeword_blocks[i - p_blocks] = std::move(block);
+    }
+  });
+  SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
+  for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+
+  progress_begin(options.progress, "decoding", patch_count(), "patches");
+  std::vector<PointCloud> parts(p_blocks);
+  std::vector<std::vector<std::uint32_t>> part_patches(options.patch_of != nullptr ? p_blocks : 0);
+  std::vector<Status> part_status(p_blocks);
+  parallel_for(0, p_blocks, 1, [&](std::size_t b) {
+    PreloadedSource& shared = src;  // read-only from here on
+    std::vector<codec::Neighbour> neighbours;
+    const DecodedPatches& block = *shared.patch_blocks[b];
+    for (std::uint32_t i = 0; i < block.count(); ++i) {
+      Status s = impl_->decode_one(shared, block.first + i, options.overlap, nullptr, neighbours,
+                                   parts[b]);
+      if (!s.ok()) {
+        part_status[b] = s;
+        return;
+      }
+      if (!part_patches.empty()) part_patches[b].resize(parts[b].size(), block.first + i);
+    }
+    progress_advance(options.progress, block.count());
+  });
+  progress_end(options.progress);
+  for (const Status& s : part_status) SSPC_RETURN_IF_ERROR(s);
+
+  std::size_t total = 0;
+  for (const PointCloud& p : parts) total += p.size();
+  PointCloud out;
+  out.reserve(total, reader.header().has_normals(), reader.header().has_colors());
+  for (PointCloud& p : parts) {
+    append(out, p);
+    p = PointCloud();
+  }
+  if (options.patch_of != nullptr) {
+    options.patch_of->clear();
+    options.patch_of->reserve(total);
+    for (const auto& p : part_patches) options.patch_of->insert(options.patch_of->end(), p.begin(), p.end());
+  }
+  return placed(std::move(out));
+}
+
+Status CompressedModel::verify() const {
+  const codec::ContainerReader& reader = impl_->reader;
+  const std::size_t p_blocks = reader.patch_blocks().size();
+  const std::size_t c_blocks = reader.codebook_blocks().size();
+  std::vector<Status> status(p_blocks + c_blocks);
+  parallel_for(0, p_blocks + c_blocks, 1, [&](std::size_t i) {
+    if (i < p_blocks) {
+      DecodedPatches block;
+      status[i] = reader.read_patches(i, block);
+    } else {
+      DecodedCodewords block;
+      status[i] = reader.read_codewords(i - p_blocks, block);
+    }
+  });
+  // Blocks first: their errors say which block and where; the section CRCs then catch what
+  // no block covers. A truncation explains either.
+  SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
+  for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+  SSPC_RETURN_IF_ERROR(
+      after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kCodebookBlocks)));
+  return after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kPatchBlocks));
+}
+
+ModelInfo CompressedModel::info() const {
+  const codec::ContainerReader& reader = impl_->reader;
+  const codec::ContainerHeader& h = reader.header();
+  ModelInfo m;
+  m.version = h.version;
+  m.has_normals = h.has_normals();
+  m.has_colors = h.has_colors();
+  m.patch_radius = h.patch_radius;
+  m.coverage_radius = h.coverage_radius;
+  m.spacing = h.spacing;
+  m.codeword_radius = h.codeword_radius;
+  m.bounds = Box3f(h.bounds_min, h.bounds_max);
+  m.source_points = h.source_points;
+  m.position_bits = h.position_bits;
+  m.normal_bits = h.normal_bits;
+  m.rotation_bits = h.rotation_bits;
+  m.translation_step = h.translation_step;
+  m.patches = h.patch_count;
+  m.codewords = h.codeword_count;
+  m.codeword_points = h.codeword_point_count;
+  m.patches_per_block = h.patches_per_block;
+  m.codewords_per_block = h.codewords_per_block;
+  m.file_bytes = reader.file_size();
+  m.header_bytes = codec::kHeaderSize;
+  for (std::size_t i = 0; i < codec::kSectionCount; ++i) {
+    const codec::SectionEntry& s = h.sections[i];
+    SectionInfo& out = m.sections[i];
+    out.name = codec::section_name(s.kind);
+    out.offset = s.offset;
+    out.bytes = s.size;
+    out.raw_bytes = s.size;
+  }
+  auto fill_blocks = [](SectionInfo& s, const std::vector<codec::BlockEntry>& blocks) {
+    s.blocks = blocks.size();
+    s.raw_bytes = 0;
+    for (const codec::BlockEntry& e : blocks) s.raw_bytes += e.raw_size;
+  };
+  fill_blocks(m.sections[0], reader.codebook_blocks());
+  fill_blocks(m.sections[2], reader.patch_blocks());
+  m.sections[1].blocks = reader.codebook_blocks().size();
+  m.sections[3].blocks = reader.patch_blocks().size();
+  m.codebook_ratio = h.codeword_count == 0 ? 0.0
+                                           : static_cast<double>(h.patch_count) /
+                                                 static_cast<double>(h.codeword_count);
+  m.bits_per_point = h.source_points == 0 ? 0.0
+                                          : static_cast<double>(m.file_bytes) * 8.0 /
+                                                static_cast<double>(h.source_points);
+  return m;
+}
+
+}  // namespace sspc

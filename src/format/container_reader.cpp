@@ -1,0 +1,360 @@
+// The .sspc reader: header and seek-table validation at open, CRC-checked block loads after.
+// Every rule of FORMAT.md that a reader "must" enforce is enforced here or in block_codec.cpp.
+#include "format/container_reader.hpp"
+
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+#include <zstd.h>
+
+#include "format/checksum.hpp"
+
+namespace sspc::codec {
+namespace {
+
+// Little-endian loads from spans the caller has already checked.
+std::uint16_t le16(const std::byte* p) {
+  return static_cast<std::uint16_t>(static_cast<unsigned>(p[0]) |
+                                    (static_cast<unsigned>(p[1]) << 8));
+}
+std::uint32_t le32(const std::byte* p) {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<std::uint32_t>(p[i]);
+  return v;
+}
+std::uint64_t le64(const std::byte* p) {
+  return le32(p) | (static_cast<std::uint64_t>(le32(p + 4)) << 32);
+}
+float lef32(const std::byte* p) {
+  return std::bit_cast<float>(le32(p));
+}
+Vec3f levec3(const std::byte* p) {
+  return {lef32(p), lef32(p + 4), lef32(p + 8)};
+}
+
+std::string hex32(std::uint32_t v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%08x", v);
+  return buf;
+}
+
+struct ZstdDctxDeleter {
+  void operator()(ZSTD_DCtx* ctx) const { ZSTD_freeDCtx(ctx); }
+};
+
+ZSTD_DCtx* thread_dctx() {
+  thread_local std::unique_ptr<ZSTD_DCtx, ZstdDctxDeleter> ctx(ZSTD_createDCtx());
+  return ctx.get();
+}
+
+}  // namespace
+
+StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes,
+                                                std::string name) {
+  // A copy: `name` is moved into the reader below, and later failures must still name the file.
+  auto fail = [file = name](std::uint64_t offset, const std::string& what) {
+    return corrupt(file + ": byte " + std::to_string(offset) + ": " + what);
+  };
+  if (bytes.size() < kMagic.size() ||
+      std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
+    return corrupt(name + ": not an .sspc file (bad magic number)");
+  }
+  if (bytes.size() < 10) return fail(bytes.size(), "truncated header (no version)");
+  const std::byte* p = bytes.data();
+  const std::uint16_t version = le16(p + 8);
+  if (version < kOldestFormatVersion || version > kFormatVersion) {
+    return unsupported(name + ": .sspc format version " + std::to_string(version) +
+                       " (this sspc reads versions " + std::to_string(kOldestFormatVersion) + " to " +
+                       std::to_string(kFormatVersion) + ")");
+  }
+  if (bytes.size() < kHeaderSize) {
+    return fail(bytes.size(), "truncated header: " + std::to_string(bytes.size()) + " of " +
+                                  std::to_string(kHeaderSize) + " bytes");
+  }
+  const std::uint32_t stored_crc = le32(p + kHeaderCrcOffset);
+  const std::uint32_t crc = crc32_of(bytes.first(kHeaderCrcOffset));
+  if (stored_crc != crc) {
+    return fail(kHeaderCrcOffset, "header CRC32 mismatch (stored " + hex32(stored_crc) +
+                                      ", computed " + hex32(crc) + ")");
+  }
+
+  ContainerReader r;
+  r.bytes_ = bytes;
+  r.name_ = std::move(name);
+  ContainerHeader& h = r.header_;
+  h.version = version;
+  h.flags = le16(p + 10);
+  if ((h.flags & ~kKnownFlags) != 0) return fail(10, "unknown flags " + hex32(h.flags));
+  if (le32(p + 12) != kHeaderSize) return fail(12, "header size is not 196");
+  h.patch_radius = lef32(p + 16);
+  h.coverage_radius = lef32(p + 20);
+  h.spacing = lef32(p + 24);
+  h.codeword_radius = lef32(p + 28);
+  h.source_points = le64(p + 32);
+  h.bounds_min = levec3(p + 40);
+  h.bounds_max = levec3(p + 52);
+  h.translation_step = lef32(p + 64);
+  h.position_bits = static_cast<int>(p[68]);
+  h.normal_bits = static_cast<int>(p[69]);
+  h.rotation_bits = static_cast<int>(p[70]);
+  h.codeword_count = le32(p + 72);
+  h.patch_count = le32(p + 76);
+  h.codeword_point_count = le64(p + 80);
+  h.codewords_per_block = le32(p + 88);
+  h.patches_per_block = le32(p + 92);
+
+  if (!(h.patch_radius > 0) || !std::isfinite(h.patch_radius)) return fail(16, "bad patch_radius");
+  if (!(h.coverage_radius >= 0) || !std::isfinite(h.coverage_radius)) {
+    return fail(20, "bad coverage_radius");
+  }
+  if (!(h.spacing >= 0) || !std::isfinite(h.spacing)) return fail(24, "bad spacing");
+  if (!(h.codeword_radius >= 0) || !std::isfinite(h.codeword_radius)) {
+    return fail(28, "bad codeword_radius");
+  }
+  if (!h.bounds_min.allFinite() || !h.bounds_max.allFinite() ||
+      !(h.bounds_min.array() <= h.bounds_max.array()).all()) {
+    return fail(40, "bad bounds");
+  }
+  if (!(h.translation_step > 0) || !std::isfinite(h.translation_step)) {
+    return fail(64, "bad translation_step");
+  }
+  if (h.position_bits < kMinPositionBits || h.position_bits > kMaxPositionBits) {
+    return fail(68, "position_bits out of range");
+  }
+  if (h.normal_bits < kMinNormalBits || h.normal_bits > kMaxNormalBits) {
+    return fail(69, "normal_bits out of range");
+  }
+  if (h.rotation_bits < kMinRotationBits || h.rotation_bits > kMaxRotationBits) {
+    return fail(70, "rotation_bits out of range");
+  }
+  if (p[71] != std::byte{0}) return fail(71, "reserved byte is not 0");
+  if (h.codewords_per_block == 0) return fail(88, "codewords_per_block is 0");
+  if (h.patches_per_block == 0) return fail(92, "patches_per_block is 0");
+
+  // Sections: in order, contiguous from the header's end to the file's end.
+  std::uint64_t expected = kHeaderSize;
+  for (std::size_t i = 0; i < kSectionCount; ++i) {
+    const std::byte* e = p + kSectionTableOffset + i * kSectionEntrySize;
+    const std::uint64_t at = kSectionTableOffset + i * kSectionEntrySize;
+    SectionEntry& s = h.sections[i];
+    const std::uint32_t kind = le32(e);
+    if (kind != i + 1)
+      return fail(at,
+                  "section table entry " + std::to_string(i) + " has kind " + std::to_string(kind));
+    s.kind = static_cast<SectionKind>(kind);
+    s.crc32 = le32(e + 4);
+    s.offset = le64(e + 8);
+    s.size = le64(e + 16);
+    if (s.offset != expected) {
+      return fail(at + 8, std::string(section_name(s.kind)) + " starts at " +
+                              std::to_string(s.offset) + ", expected " + std::to_string(expected));
+    }
+    if (s.size > bytes.size() - std::min<std::uint64_t>(s.offset, bytes.size())) {
+      return fail(bytes.size(), std::string("truncated: the ") + section_name(s.kind) +
+                                    " section ends at byte " + std::to_string(s.offset + s.size) +
+                                    " but the file has " + std::to_string(bytes.size()) + " bytes");
+    }
+    expected = s.offset + s.size;
+  }
+  if (h.has_metadata()) {
+    auto metadata = decode_metadata(bytes.subspan(static_cast<std::size_t>(expected)), expected,
+                                    r.name_);
+    if (!metadata.ok()) return metadata.status();
+    r.metadata_ = std::move(*metadata);
+  } else if (expected != bytes.size()) {
+    return fail(expected, std::to_string(bytes.size() - expected) +
+                              " trailing bytes after the declared end of the file");
+  }
+
+  // Seek tables: their sizes follow from the counts, which bounds the counts by the file size.
+  const SectionEntry& cw_seek = h.sections[1];
+  const SectionEntry& p_seek = h.sections[3];
+  const std::uint64_t cw_blocks = block_count(h.codeword_count, h.codewords_per_block);
+  const std::uint64_t p_blocks = block_count(h.patch_count, h.patches_per_block);
+  if (cw_seek.size != cw_blocks * kCodebookSeekEntrySize) {
+    return fail(cw_seek.offset, "code-book seek table has " + std::to_string(cw_seek.size) +
+                                    " bytes; " + std::to_string(h.codeword_count) +
+                                    " code words need " +
+                                    std::to_string(cw_blocks * kCodebookSeekEntrySize));
+  }
+  if (p_seek.size != p_blocks * kPatchSeekEntrySize) {
+    return fail(p_seek.offset, "patch seek table has " + std::to_string(p_seek.size) + " bytes; " +
+                                   std::to_string(h.patch_count) + " patches need " +
+                                   std::to_string(p_blocks * kPatchSeekEntrySize));
+  }
+  for (const SectionEntry* s : {&cw_seek, &p_seek}) {
+    const std::uint32_t c = crc32_of(bytes.subspan(s->offset, s->size));
+    if (c != s->crc32) {
+      return fail(s->offset, std::string(section_name(s->kind)) + ": CRC32 mismatch (stored " +
+                                 hex32(s->crc32) + ", computed " + hex32(c) + ")");
+    }
+  }
+
+  auto parse_entries = [&](const SectionEntry& seek, const SectionEntry& data, std::uint64_t count,
+                           std::uint32_t per_block, std::uint64_t items, bool patches,
+                           std::vector<BlockEntry>& out) -> Status {
+    out.resize(count);
+    std::uint64_t next = 0;
+    std::uint64_t points = 0;
+    const std::size_t entry_size = patches ? kPatchSeekEntrySize : kCodebookSeekEntrySize;
+    for (std::uint64_t b = 0; b < count; ++b) {
+      const std::uint64_t at = seek.offset + b * entry_size;
+      const std::byte* e = p + at;
+      BlockEntry& x = out[b];
+      x.offset = le64(e);
+      x.stored_size = le32(e + 8);
+      x.raw_size = le32(e + 12);
+      x.crc32 = le32(e + 16);
+      x.first = le32(e + 20);
+      x.count = le32(e + 24);
+      const std::string what =
+          std::string(section_name(seek.kind)) + ", block " + std::to_string(b);
+      if (x.offset != next)
+        return fail(at, what + ": offset " + std::to_string(x.offset) + ", expected " +
+                            std::to_string(next));
+      if (x.stored_size == 0 || x.raw_size == 0 || x.stored_size > x.raw_size ||
+          x.raw_size > kMaxRawBlockSize) {
+        return fail(at + 8, what + ": bad sizes (stored " + std::to_string(x.stored_size) +
+                                ", raw " + std::to_string(x.raw_size) + ")");
+      }
+      if (x.raw_size > std::uint64_t{x.stored_size} * kMaxBlockExpansion) {
+        return fail(at + 8, what + ": " + std::to_string(x.stored_size) +
+                                " stored bytes cannot expand to " + std::to_string(x.raw_size) +
+                                " (at most " + std::to_string(kMaxBlockExpansion) + "x)");
+      }
+      if (x.stored_size > data.size - next) {
+        return fail(at + 8, what + " runs past the end of its section");
+      }
+      next += x.stored_size;
+      const std::uint64_t first = b * per_block;
+      if (x.first != first || x.count != std::min<std::uint64_t>(per_block, items - first)) {
+        return fail(at + 20, what + ": first/count " + std::to_string(x.first) + "/" +
+                                 std::to_string(x.count) + " do not match the block's position");
+      }
+      if (patches) {
+        if (le32(e + 28) != 0) return fail(at + 28, what + ": reserved field is not 0");
+        const Vec3f lo = levec3(e + 32), hi = levec3(e + 44);
+        if (!lo.allFinite() || !hi.allFinite() || !(lo.array() <= hi.array()).all()) {
+          return fail(at + 32, what + ": bad box");
+        }
+        x.box = Box3f(lo, hi);
+      } else {
+        x.point_count = le32(e + 28);
+        if (!codeword_points_fit(h, x.point_count, x.raw_size)) {
+          return fail(at + 28, what + ": " + std::to_string(x.point_count) +
+                                   " points cannot fit in " + std::to_string(x.raw_size) +
+                                   " bytes");
+        }
+        points += x.point_count;
+      }
+    }
+    if (next != data.size) {
+      return fail(data.offset + next, std::string(section_name(data.kind)) + ": " +
+                                          std::to_string(data.size - next) +
+                                          " bytes after the last block");
+    }
+    if (!patches && points != h.codeword_point_count) {
+      return fail(80, "codeword_point_count " + std::to_string(h.codeword_point_count) +
+                          " but the seek table adds up to " + std::to_string(points));
+    }
+    return Status();
+  };
+  SSPC_RETURN_IF_ERROR(parse_entries(cw_seek, h.sections[0], cw_blocks, h.codewords_per_block,
+                                     h.codeword_count, false, r.codebook_blocks_));
+  SSPC_RETURN_IF_ERROR(parse_entries(p_seek, h.sections[2], p_blocks, h.patches_per_block,
+                                     h.patch_count, true, r.patch_blocks_));
+  return r;
+}
+
+Status ContainerReader::block_error(SectionKind kind, std::size_t block, const BlockEntry& entry,
+                                    const Status& cause) const {
+  const SectionEntry& s = header_.sections[static_cast<std::size_t>(kind) - 1];
+  const char* items = kind == SectionKind::kCodebookBlocks ? "code words" : "patches";
+  const std::string last = entry.count == 0 ? std::to_string(entry.first)
+                                            : std::to_string(entry.first + entry.count - 1);
+  return Status(cause.code(),
+                name_ + ": " + section_name(kind) + " section, block " + std::to_string(block) +
+                    " (" + items + " " + std::to_string(entry.first) + "–" + last + ", byte " +
+                    std::to_string(s.offset + entry.offset) + "): " + cause.message());
+}
+
+Status ContainerReader::load_block(SectionKind kind, std::size_t block, const BlockEntry& entry,
+                                   std::vector<std::byte>& scratch,
+                                   std::span<const std::byte>& payload) const {
+  const SectionEntry& s = header_.sections[static_cast<std::size_t>(kind) - 1];
+  // open() proved that the block lies inside its section and the section inside the file.
+  const std::span<const std::byte> stored =
+      bytes_.subspan(s.offset + entry.offset, entry.stored_size);
+  const std::uint32_t crc = crc32_of(stored);
+  if (crc != entry.crc32) {
+    return block_error(
+        kind, block, entry,
+        corrupt("CRC32 mismatch (stored " + hex32(entry.crc32) + ", computed " + hex32(crc) + ")"));
+  }
+  if (entry.is_stored_raw()) {
+    payload = stored;
+    return Status();
+  }
+  const std::size_t frame = ZSTD_findFrameCompressedSize(stored.data(), stored.size());
+  if (ZSTD_isError(frame) || frame != stored.size()) {
+    return block_error(kind, block, entry, corrupt("not exactly one zstd frame"));
+  }
+  scratch.resize(entry.raw_size);
+  const std::size_t n = ZSTD_decompressDCtx(thread_dctx(), scratch.data(), scratch.size(),
+                                            stored.data(), stored.size());
+  if (ZSTD_isError(n)) {
+    return block_error(kind, block, entry, corrupt(std::string("zstd: ") + ZSTD_getErrorName(n)));
+  }
+  if (n != entry.raw_size) {
+    return block_error(kind, block, entry,
+                       corrupt("decompressed to " + std::to_string(n) +
+                               " bytes, the seek table says " + std::to_string(entry.raw_size)));
+  }
+  payload = std::span<const std::byte>(scratch.data(), n);
+  return Status();
+}
+
+Status ContainerReader::read_codewords(std::size_t block, DecodedCodewords& out) const {
+  if (block >= codebook_blocks_.size()) return invalid_argument("code-book block out of range");
+  const BlockEntry& entry = codebook_blocks_[block];
+  thread_local std::vector<std::byte> scratch;
+  std::span<const std::byte> payload;
+  SSPC_RETURN_IF_ERROR(load_block(SectionKind::kCodebookBlocks, block, entry, scratch, payload));
+  Status s = decode_codeword_block(payload, entry, header_, out);
+  if (!s.ok()) return block_error(SectionKind::kCodebookBlocks, block, entry, s);
+  for (std::uint32_t c = 0; c < out.count(); ++c) {
+    if (out.radius[c] > header_.codeword_radius) {
+      return block_error(SectionKind::kCodebookBlocks, block, entry,
+                         corrupt("code word " + std::to_string(entry.first + c) +
+                                 " reaches beyond the header's codeword_radius"));
+    }
+  }
+  return Status();
+}
+
+Status ContainerReader::read_patches(std::size_t block, DecodedPatches& out) const {
+  if (block >= patch_blocks_.size()) return invalid_argument("patch block out of range");
+  const BlockEntry& entry = patch_blocks_[block];
+  thread_local std::vector<std::byte> scratch;
+  std::span<const std::byte> payload;
+  SSPC_RETURN_IF_ERROR(load_block(SectionKind::kPatchBlocks, block, entry, scratch, payload));
+  Status s = decode_patch_block(payload, entry, header_, true, out);
+  if (!s.ok()) return block_error(SectionKind::kPatchBlocks, block, entry, s);
+  return Status();
+}
+
+Status ContainerReader::check_section_crc(SectionKind kind) const {
+  const SectionEntry& s = header_.sections[static_cast<std::size_t>(kind) - 1];
+  const std::uint32_t c = crc32_of(bytes_.subspan(s.offset, s.size));
+  if (c != s.crc32) {
+    return corrupt(name_ + ": " + section_name(kind) + " section (bytes " +
+                   std::to_string(s.offset) + "–" + std::to_string(s.offset + s.size) +
+                   "): CRC32 mismatch (stored " + hex32(s.crc32) + ", computed " + hex32(c) + ")");
+  }
+  return Status();
+}
+
+}  // namespace sspc::codec

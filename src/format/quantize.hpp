@@ -1,0 +1,51 @@
+// The quantisers of the .sspc format (docs/FORMAT.md, "Quantisation"): code-word positions on
+// a grid relative to patch_radius, octahedral normals, smallest-three rotations, translations
+// on an absolute grid. The writer and the reader both call these, so a value decodes to the same
+// float wherever it is decoded; the arithmetic order is part of the format.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "sspc/point_cloud.hpp"
+
+namespace sspc::codec {
+
+// --- Code-word positions: offset-binary values below 2^bits, cell midpoints on decode.
+
+float position_step(float patch_radius, int bits);
+// The bits (within the format's 4..16) whose step is nearest `step` in ratio: within a factor
+// √2 of it, since the grid's steps are 2·patch_radius / 2^bits.
+int position_bits_for_step(double patch_radius, double step);
+std::uint32_t quantize_coordinate(float x, float step, int bits);
+inline float dequantize_coordinate(std::uint32_t v, float step, int bits) {
+  const auto half = static_cast<std::int32_t>(1u << (bits - 1));
+  return (static_cast<float>(static_cast<std::int32_t>(v) - half) + 0.5f) * step;
+}
+
+// --- Normals: octahedral map (Meyer et al. 2010), `bits` per component.
+
+std::array<std::uint32_t, 2> encode_normal(const Vec3f& n, int bits);
+Vec3f decode_normal(std::uint32_t u, std::uint32_t v, int bits);
+
+// --- Rotations: unit quaternion, smallest three.
+
+struct PackedRotation {
+  std::uint32_t index = 3;  // 0 = x … 3 = w: the dropped (largest) component
+  std::array<std::uint32_t, 3> c{};
+};
+
+PackedRotation encode_rotation(const Eigen::Matrix3f& rotation, int bits);
+// Always a rotation (orthonormal, det +1, to float precision), whatever `packed` holds.
+Eigen::Matrix3f decode_rotation(const PackedRotation& packed, int bits);
+
+// --- Translations: an i32 grid of `step` relative to `origin` (the bounds' minimum).
+
+// False when a coordinate falls outside |v| < 2^24 (the writer reports it).
+[[nodiscard]] bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
+                          std::array<std::int32_t, 3>& out);
+Vec3f dequantize_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin, float step);
+
+}  // namespace sspc::codec

@@ -1,0 +1,161 @@
+#include "format/range_coder.hpp"
+
+#include <bit>
+
+namespace sspc::codec {
+
+namespace {
+
+constexpr std::uint32_t kTop = 1u << 24;
+
+inline void adapt(std::uint16_t& p, unsigned bit) {
+  if (bit == 0) {
+    p = static_cast<std::uint16_t>(p + (((1u << kProbabilityBits) - p) >> kAdaptationShift));
+  } else {
+    p = static_cast<std::uint16_t>(p - (p >> kAdaptationShift));
+  }
+}
+
+}  // namespace
+
+void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
+  const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
+  if (bit == 0) {
+    range_ = bound;
+  } else {
+    low_ += bound;
+    range_ -= bound;
+  }
+  adapt(p, bit);
+  while (range_ < kTop) {
+    range_ <<= 8;
+    shift_low();
+  }
+}
+
+void RangeEncoder::encode_direct(std::uint32_t value, int bits) {
+  for (int i = bits - 1; i >= 0; --i) {
+    range_ >>= 1;
+    if ((value >> i) & 1u) low_ += range_;
+    while (range_ < kTop) {
+      range_ <<= 8;
+      shift_low();
+    }
+  }
+}
+
+void RangeEncoder::shift_low() {
+  // A byte can be emitted once no carry can reach it: low is below 0xFF000000, or the carry
+  // has just happened. Until then 0xFF bytes wait behind the cache.
+  if (static_cast<std::uint32_t>(low_) < 0xFF000000u || (low_ >> 32) != 0) {
+    const auto carry = static_cast<std::uint8_t>(low_ >> 32);
+    std::uint8_t byte = cache_;
+    do {
+      out_.push_back(static_cast<char>(static_cast<std::uint8_t>(byte + carry)));
+      byte = 0xFF;
+    } while (--pending_ != 0);
+    cache_ = static_cast<std::uint8_t>((low_ >> 24) & 0xFF);
+  }
+  ++pending_;
+  low_ = (low_ & 0x00FFFFFFu) << 8;
+}
+
+void RangeEncoder::finish() {
+  for (int i = 0; i < 5; ++i) shift_low();
+}
+
+RangeDecoder::RangeDecoder(std::span<const std::byte> in) : in_(in) {
+  first_byte_ok_ = next() == 0;
+  for (int i = 0; i < 4; ++i) code_ = (code_ << 8) | next();
+}
+
+std::uint8_t RangeDecoder::next() {
+  if (position_ < in_.size()) return static_cast<std::uint8_t>(in_[position_++]);
+  ++overrun_;
+  return 0;
+}
+
+unsigned RangeDecoder::decode(std::uint16_t& p) {
+  const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
+  unsigned bit;
+  if (code_ < bound) {
+    range_ = bound;
+    bit = 0;
+  } else {
+    code_ -= bound;
+    range_ -= bound;
+    bit = 1;
+  }
+  adapt(p, bit);
+  while (range_ < kTop) {
+    range_ <<= 8;
+    code_ = (code_ << 8) | next();
+  }
+  return bit;
+}
+
+std::uint32_t RangeDecoder::decode_direct(int bits) {
+  std::uint32_t value = 0;
+  for (int i = 0; i < bits; ++i) {
+    range_ >>= 1;
+    unsigned bit = 0;
+    if (code_ >= range_) {
+      code_ -= range_;
+      bit = 1;
+    }
+    value = (value << 1) | bit;
+    while (range_ < kTop) {
+      range_ <<= 8;
+      code_ = (code_ << 8) | next();
+    }
+  }
+  return value;
+}
+
+void ValueModel::reset() {
+  length_.fill(kProbabilityHalf);
+  for (auto& m : mantissa_) m.fill(kProbabilityHalf);
+}
+
+void ValueModel::encode(RangeEncoder& rc, std::uint32_t value) {
+  const auto length = static_cast<std::uint32_t>(std::bit_width(value));  // 0 for 0, ≤ 16
+  std::uint32_t node = 1;
+  for (int i = 4; i >= 0; --i) {
+    const unsigned bit = (length >> i) & 1u;
+    rc.encode(length_[node], bit);
+    node = (node << 1) | bit;
+  }
+  if (length < 2) return;
+  const int rest = static_cast<int>(length) - 1;  // bits below the leading one
+  const int modelled = rest < 2 ? rest : 2;
+  node = 1;
+  for (int i = 0; i < modelled; ++i) {
+    const unsigned bit = (value >> (rest - 1 - i)) & 1u;
+    rc.encode(mantissa_[length][node], bit);
+    node = (node << 1) | bit;
+  }
+  if (rest > modelled) rc.encode_direct(value, rest - modelled);
+}
+
+std::uint32_t ValueModel::decode(RangeDecoder& rc) {
+  std::uint32_t node = 1;
+  for (int i = 0; i < 5; ++i) node = (node << 1) | rc.decode(length_[node]);
+  const std::uint32_t length = node - 32;
+  if (length < 2) return length;  // 0 → 0, 1 → 1
+  // A corrupt stream may code a length past 16: clamp, the caller's range checks catch the
+  // value (and the block's CRC has already failed for a corrupt stream).
+  const std::uint32_t bits = length > kMaxBits ? kMaxBits : length;
+  const int rest = static_cast<int>(bits) - 1;
+  const int modelled = rest < 2 ? rest : 2;
+  std::uint32_t value = 1;
+  node = 1;
+  for (int i = 0; i < modelled; ++i) {
+    const unsigned bit = rc.decode(mantissa_[bits][node]);
+    node = (node << 1) | bit;
+    value = (value << 1) | bit;
+  }
+  if (rest > modelled) value = (value << (rest - modelled)) | rc.decode_direct(rest - modelled);
+  return value;
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,78 @@
+#include "format/region_decoder.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sspc::codec {
+namespace {
+
+// R q + c, spelled out so that its rounding is the same in every caller.
+Vec3f transform_point(const Eigen::Matrix3f& r, const Vec3f& q, const Vec3f& c) {
+  return {r(0, 0) * q.x() + r(0, 1) * q.y() + r(0, 2) * q.z() + c.x(),
+          r(1, 0) * q.x() + r(1, 1) * q.y() + r(1, 2) * q.z() + c.y(),
+          r(2, 0) * q.x() + r(2, 1) * q.y() + r(2, 2) * q.z() + c.z()};
+}
+Vec3f rotate(const Eigen::Matrix3f& r, const Vec3f& v) {
+  return {r(0, 0) * v.x() + r(0, 1) * v.y() + r(0, 2) * v.z(),
+          r(1, 0) * v.x() + r(1, 1) * v.y() + r(1, 2) * v.z(),
+          r(2, 0) * v.x() + r(2, 1) * v.y() + r(2, 2) * v.z()};
+}
+
+}  // namespace
+
+void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
+                       std::span<const Neighbour> neighbours) {
+  k_ = k;
+  frame_.clear();
+  for (const Neighbour& n : neighbours) {
+    const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
+                dz = n.centre.z() - centre.z();
+    // Rᵀ d: column a of R dotted with d.
+    FrameNeighbour f;
+    f.x = rotation(0, 0) * dx + rotation(1, 0) * dy + rotation(2, 0) * dz;
+    f.y = rotation(0, 1) * dx + rotation(1, 1) * dy + rotation(2, 1) * dz;
+    f.z = rotation(0, 2) * dx + rotation(1, 2) * dy + rotation(2, 2) * dz;
+    f.ee = f.x * f.x + f.y * f.y + f.z * f.z;
+    f.index = n.index;
+    frame_.push_back(f);
+  }
+  // Nearest first: most rejections happen on the first tests, and claims() can stop at the
+  // first neighbour too far away to matter. The order does not change which points are kept.
+  std::sort(frame_.begin(), frame_.end(), [](const FrameNeighbour& a, const FrameNeighbour& b) {
+    return a.ee < b.ee || (a.ee == b.ee && a.index < b.index);
+  });
+}
+
+bool RegionTest::claims(const Vec3f& q, float norm2) const {
+  // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away and
+  // cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop stops
+  // there. Skipping them never changes the outcome of the rule.
+  const float reach = 4.001f * norm2;
+  for (const FrameNeighbour& f : frame_) {
+    if (f.ee > reach) break;
+    const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
+    if (s > 0.0f || (s == 0.0f && k_ < f.index)) continue;
+    return false;
+  }
+  return true;
+}
+
+void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
+                const CodewordView& cw, std::span<const Neighbour> neighbours, bool overlap,
+                const Box3f* clip, PointCloud& out) {
+  thread_local RegionTest region;
+  if (!overlap) region.reset(k, rotation, centre, neighbours);
+  const bool normals = cw.normals != nullptr;
+  const bool colors = cw.colors != nullptr;
+  for (std::size_t i = 0; i < cw.size; ++i) {
+    const Vec3f& q = cw.points[i];
+    if (!overlap && !region.claims(q, cw.norm2[i])) continue;
+    const Vec3f p = transform_point(rotation, q, centre);
+    if (clip != nullptr && !clip->contains(p)) continue;
+    out.positions.push_back(p);
+    if (normals) out.normals.push_back(rotate(rotation, cw.normals[i]));
+    if (colors) out.colors.push_back(cw.colors[i]);
+  }
+}
+
+}  // namespace sspc::codec

@@ -1,0 +1,108 @@
+// The quantisers of docs/FORMAT.md: error bounds, total decoders, and the measurement behind
+// the default rotation_bits.
+#include "format/quantize.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "container_test_models.hpp"
+#include "geometry/rigid_transform.hpp"
+
+namespace sspc::codec {
+namespace {
+
+TEST(QuantizeTest, PositionWithinHalfStep) {
+  test::TestRng rng(1);
+  const float radius = 3.5f;
+  for (int bits : {4, 12, 16}) {
+    const float step = position_step(radius, bits);
+    for (int i = 0; i < 20000; ++i) {
+      const float x = rng.range(-radius, radius);
+      const std::uint32_t v = quantize_coordinate(x, step, bits);
+      ASSERT_LT(v, 1u << bits);
+      EXPECT_LE(std::abs(dequantize_coordinate(v, step, bits) - x), step * 0.5f * 1.0001f)
+          << "bits " << bits << " x " << x;
+    }
+    // Outside the range clamps to the end cells instead of wrapping.
+    EXPECT_EQ(quantize_coordinate(10 * radius, step, bits), (1u << bits) - 1);
+    EXPECT_EQ(quantize_coordinate(-10 * radius, step, bits), 0u);
+  }
+}
+
+TEST(QuantizeTest, NormalsOctahedral10BitsUnderAQuarterDegree) {
+  test::TestRng rng(2);
+  double worst = 0;
+  for (int i = 0; i < 20000; ++i) {
+    Vec3f n(rng.range(-1, 1), rng.range(-1, 1), rng.range(-1, 1));
+    if (n.norm() < 1e-3f) continue;
+    n.normalize();
+    const auto uv = encode_normal(n, 10);
+    const Vec3f d = decode_normal(uv[0], uv[1], 10);
+    EXPECT_NEAR(d.norm(), 1.0f, 1e-5f);
+    worst = std::max(worst, std::acos(std::min(1.0, static_cast<double>(n.dot(d)))));
+  }
+  EXPECT_LT(worst * 180.0 / M_PI, 0.25);
+}
+
+TEST(QuantizeTest, EveryStoredRotationDecodesToARotation) {
+  test::TestRng rng(3);
+  for (int bits : {4, 13, 20}) {
+    for (int i = 0; i < 5000; ++i) {
+      PackedRotation p;
+      p.index = rng.below(4);
+      for (auto& c : p.c) c = rng.below(1u << bits);
+      const Eigen::Matrix3f r = decode_rotation(p, bits);
+      EXPECT_TRUE(is_rotation(r, 1e-5f)) << r;
+      EXPECT_GT(r.determinant(), 0.0f);
+    }
+  }
+}
+
+// Worst displacement of a point at patch_radius by the rotation's quantisation, over random
+// rotations, against the 12-bit position step (FORMAT.md, "Why 13 bits").
+double worst_rotation_error(int bits, float radius) {
+  test::TestRng rng(4);
+  double worst = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Matrix3f r = rng.rotation();
+    const Eigen::Matrix3f d = decode_rotation(encode_rotation(r, bits), bits);
+    for (int a = 0; a < 3; ++a) {
+      const Vec3f p = Vec3f::Unit(a) * radius;
+      worst = std::max(worst, static_cast<double>((r * p - d * p).norm()));
+    }
+    const Vec3f diag = Vec3f::Ones().normalized() * radius;
+    worst = std::max(worst, static_cast<double>((r * diag - d * diag).norm()));
+  }
+  return worst;
+}
+
+TEST(QuantizeTest, RotationErrorBelowPositionStep) {
+  const float radius = 1.0f;
+  const double step = position_step(radius, 12);
+  const double e13 = worst_rotation_error(13, radius);
+  const double e12 = worst_rotation_error(12, radius);
+  std::printf(
+      "rotation error at patch_radius: 12 bits %.3g, 13 bits %.3g; 12-bit position "
+      "step %.3g\n",
+      e12, e13, step);
+  EXPECT_LT(e13, step);
+}
+
+TEST(QuantizeTest, TranslationGrid) {
+  const Vec3f origin(-5, 2, 100);
+  const float step = 1.0f / 64;
+  test::TestRng rng(5);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3f t(rng.range(-5, 50), rng.range(2, 40), rng.range(100, 101));
+    std::array<std::int32_t, 3> v{};
+    ASSERT_TRUE(quantize_translation(t, origin, step, v));
+    const Vec3f d = dequantize_translation(v, origin, step);
+    EXPECT_LE((d - t).cwiseAbs().maxCoeff(), step * 0.5f + 1e-4f);
+  }
+  std::array<std::int32_t, 3> v{};
+  EXPECT_FALSE(quantize_translation(Vec3f(1e9f, 0, 0), origin, step, v));
+}
+
+}  // namespace
+}  // namespace sspc::codec
