@@ -121,7 +121,7 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--patch", o->patch,
                   "Only patch K (its region, or all its stored points with --overlap)")
       ->type_name("K")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Validator(CLI::NonNegativeNumber).description(""))
       ->excludes(box);
   app->add_flag("--overlap", o->overlap,
                 "Keep every stored point of every patch, no region test (whole spheres for files "

@@ -134,17 +134,22 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("input", o->input, "Point cloud to read (PLY, LAS, XYZ/PTS, PCD; '-' reads stdin)")->required();
   app->add_option("output", o->output, "Compressed model to write (.sspc; '-' writes stdout)")->required();
   app->add_option("-l,--level", o->level, "0 (most detail) .. 9 (smallest file)")
-      ->check(CLI::Range(0, 9))
+      ->check(CLI::Range(0, 9).description(""))
+      ->type_name("0..9")
       ->capture_default_str();
   app->add_option("--patch-points", o->patch_points, "Expected points per patch (overrides the level)")
-      ->check(CLI::Range(8, 4096));
+      ->check(CLI::Range(8, 4096).description(""))
+      ->type_name("8..4096");
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")
-      ->check(number_in(0, 1000, true));
+      ->check(number_in(0, 1000, true))
+      ->type_name("0<X<=1000");
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
-      ->check(number_in(0, 1000, true));
+      ->check(number_in(0, 1000, true))
+      ->type_name("0<X<=1000");
   app->add_option("--position-bits", o->position_bits,
                   "Code-word grid: 2 patch radii in 2^bits steps (overrides the level's step)")
-      ->check(CLI::Range(4, 16));
+      ->check(CLI::Range(4, 16).description(""))
+      ->type_name("4..16");
   app->add_flag("--store-normals", o->store_normals,
                 "Store the code words' normals too (positions only by default)");
   app->add_flag("--full-spheres", o->full_spheres,
@@ -159,7 +164,7 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->type_name("auto|keep|estimate")
       ->default_str("auto");
   app->add_option("--viewpoint", o->viewpoint, "Orient estimated normals towards this point")
-      ->check(kVec3Validator);
+      ->check(kVec3Validator)->type_name("X,Y,Z");
   app->add_flag("-f,--force", o->force, "Overwrite an existing output file");
   app->add_flag("--json", o->json, "Machine-readable statistics on stdout (keys: docs/CLI.md)");
   app->footer("Example: sspc encode scan.ply model.sspc --level 7   (or: cat scan.ply | sspc encode - model.sspc)");

@@ -21,7 +21,7 @@ struct EvalCliOptions {
   std::string test;
   std::optional<double> peak;
   std::string compressed;
-  bool estimate_ref_normals = true;
+  bool no_estimate_normals = false;
   bool json = false;
 };
 
@@ -70,14 +70,14 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
   // D2 projects errors on REF's normals; a reference without them gets estimated ones so that
   // D2 is still reported (said in the output), unless the user opts out.
   const bool ref_had_normals = ref->has_normals();
-  if (!ref_had_normals && options.estimate_ref_normals) {
+  if (!ref_had_normals && !options.no_estimate_normals) {
     NormalOptions normal_options;
     normal_options.mode = NormalMode::kEstimate;
     normal_options.progress = progress.get();
     const Status status = ensure_normals(*ref, normal_options);
     if (!status.ok()) return report_failure(status.with_context(options.ref));
   }
-  progress_stages(progress.get(), 2 + (ref_had_normals || !options.estimate_ref_normals ? 0 : 3) + (ref->has_normals() ? 4 : 3));
+  progress_stages(progress.get(), 2 + (ref_had_normals || options.no_estimate_normals ? 0 : 3) + (ref->has_normals() ? 4 : 3));
   // Normal errors compare the files' own normals, never estimated ones.
   const bool compare_normals = ref_had_normals && test->has_normals();
   if (!compare_normals && test->has_normals()) test->normals.clear();
@@ -170,10 +170,12 @@ Command add_eval_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("ref", options->ref, "Reference (original) point cloud ('-' reads stdin)")->required();
   app->add_option("test", options->test, "Test (decoded) point cloud ('-' reads stdin)")->required();
   app->add_option("--peak", options->peak,
-                  "Peak for D1/D2 PSNR (default: REF's bounding-box diagonal)");
+                  "Peak for D1/D2 PSNR (default: REF's bounding-box diagonal)")
+      ->type_name("NUMBER");
   app->add_option("--compressed", options->compressed,
-                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)");
-  app->add_flag("!--no-estimate-normals", options->estimate_ref_normals,
+                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)")
+      ->type_name("FILE");
+  app->add_flag("--no-estimate-normals", options->no_estimate_normals,
                 "Skip D2 when REF has no normals instead of estimating them");
   app->add_flag("--json", options->json, "Machine-readable output on stdout (keys: docs/CLI.md)");
   app->footer("Example: sspc eval scan.ply decoded.ply --compressed model.sspc");

@@ -97,11 +97,12 @@ Command add_normals_command(CLI::App& root, const GlobalOptions& global) {
       ->type_name("auto|keep|estimate")
       ->default_str("estimate");
   app->add_option("-k,--neighbors", options->k, "Neighbours for the PCA")
-      ->check(CLI::Range(3, 256))
+      ->check(CLI::Range(3, 256).description(""))
+      ->type_name("3..256")
       ->capture_default_str();
   app->add_option("--viewpoint", options->viewpoint,
                   "Orient normals towards this point (scanner position) instead of propagating")
-      ->check(kVec3Validator);
+      ->check(kVec3Validator)->type_name("X,Y,Z");
   app->add_flag("--ascii", options->ascii, "Write ascii PLY (default: binary little-endian)");
   app->add_flag("-f,--force", options->force, "Overwrite an existing output file");
   app->add_flag("--json", options->json, "Machine-readable statistics on stdout (keys: docs/CLI.md)");

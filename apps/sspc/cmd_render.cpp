@@ -357,12 +357,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
       json["frame_bytes_read"] = std::move(frame_bytes);
     }
     print_json(json);
-  } else if (global.quiet) {
-  } else if (sequence) {
+  } else if (!global.quiet && sequence) {
     std::printf("%s: %llu points -> %zu frames %s (%dx%d), build %.2f s, frame median %.3f s (%.3g rays/s), times in %s\n",
                 o.input.c_str(), static_cast<unsigned long long>(points), frames.size(), frame_path(o.output, 0).c_str(),
                 options.width, options.height, build, median, rays_per_second, times.c_str());
-  } else {
+  } else if (!global.quiet) {
     std::fprintf(summary_stream({o.output}),
                  "%s: %llu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
                 o.input.c_str(), static_cast<unsigned long long>(points), o.output.c_str(), options.width, options.height,
@@ -386,7 +385,7 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   CLI::App* app = root.add_subcommand("render", "Ray-trace a point cloud's or a compressed model's MLS surface into a PNG");
   app->add_option("input", o->input, "Point cloud (PLY, LAS, XYZ/PTS, PCD) or compressed model (.sspc); '-' reads stdin")
       ->required();
-  app->add_option("-o,--output", o->output, "PNG file to write ('-' writes stdout)")->required();
+  app->add_option("-o,--output", o->output, "PNG file to write ('-' writes stdout)")->type_name("FILE")->required();
   app->add_option("--size", o->size, "Image size WIDTHxHEIGHT, 1..16384 pixels a side")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
@@ -396,11 +395,13 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
           ""))
       ->type_name("WxH")
       ->capture_default_str();
-  app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator);
-  app->add_option("--target", o->target, "Point the camera looks at (default: the cloud's centre)")->check(kVec3Validator);
-  app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator);
-  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(number_in(1, 170))->capture_default_str();
-  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(number_in(0.5, 20))->capture_default_str();
+  app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--target", o->target, "Point the camera looks at (default: the cloud's centre)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(number_in(1, 170))
+      ->type_name("1..170")->capture_default_str();
+  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(number_in(0.5, 20))
+      ->type_name("0.5..20")->capture_default_str();
   const std::map<std::string, Shade> shades{{"lambert", Shade::kLambert},
                                             {"normal", Shade::kNormal},
                                             {"depth", Shade::kDepth},
@@ -414,21 +415,26 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--memory-budget", o->budget_mib,
                   "MiB the scene may hold: a point cloud's points are paged in from a file through a cache of that "
                   "size; a compressed model's decoded bricks are cached within it (default 512)")
-      ->check(number_in(1, 1e7));
+      ->check(number_in(1, 1e7))
+      ->type_name("1..1e7");
   app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)")
-      ->check(CLI::ExistingDirectory);
+      ->check(CLI::Validator(CLI::ExistingDirectory).description(""))
+      ->type_name("DIR");
   app->add_option("--camera-path", o->camera_path,
                   "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
                   "frames go to OUT_0000.png, ... and each frame's time to a CSV")
-      ->check(CLI::ExistingFile);
+      ->check(CLI::Validator(CLI::ExistingFile).description(""))
+      ->type_name("FILE");
   app->add_option("--orbit", o->orbit, "Render a sequence of N frames circling the target (as --camera-path)")
-      ->check(CLI::Range(1, 100000))
+      ->check(CLI::Range(1, 100000).description(""))
+      ->type_name("1..100000")
       ->excludes("--camera-path");
-  app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)");
+  app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)")->type_name("FILE");
   app->add_option("--compare", o->compare,
                   "A PNG of the same size to compare the render with: image PSNR over the pixels both hit, and the "
                   "pixels hit in one only (docs/METRICS.md)")
-      ->check(CLI::ExistingFile)
+      ->check(CLI::Validator(CLI::ExistingFile).description(""))
+      ->type_name("FILE")
       ->excludes("--camera-path")
       ->excludes("--orbit");
   app->add_flag("-f,--force", o->force, "Overwrite existing output files");

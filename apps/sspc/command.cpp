@@ -295,7 +295,7 @@ CLI::Validator number_in(double lo, double hi, bool open_low) {
         if (v < lo || v > hi || (open_low && v == lo)) return "'" + text + "' is outside " + name;
         return std::string();
       },
-      "NUMBER in " + name);
+      "");  // the option's type name shows the range in --help
 }
 
 std::optional<Vec3f> parse_vec3(const std::string& text) {
@@ -323,6 +323,6 @@ const CLI::Validator kVec3Validator(
     [](std::string& text) -> std::string {
       return parse_vec3(text) ? std::string() : "expected three finite numbers x,y,z";
     },
-    "X,Y,Z");
+    "");  // the options name their type X,Y,Z
 
 }  // namespace sspc::cli

@@ -48,9 +48,10 @@ int main(int argc, char** argv) {
 
   GlobalOptions global;
   app.add_option("--threads", global.threads, "Worker threads (0: all cores)")
-      ->check(CLI::Range(0, 1024))
+      ->check(CLI::Range(0, 1024).description(""))
+      ->type_name("0..1024")
       ->capture_default_str();
-  app.add_flag("-q,--quiet", global.quiet, "No progress display, even on a terminal");
+  app.add_flag("-q,--quiet", global.quiet, "No progress display, even on a terminal, and no summary line (--json still prints)");
 
   std::vector<Command> commands;
   commands.push_back(add_info_command(app, global));
@@ -61,6 +62,13 @@ int main(int argc, char** argv) {
   commands.push_back(add_verify_command(app, global));
   commands.push_back(add_render_command(app, global));
   commands.push_back(add_convert_command(app, global));
+
+  // Positional arguments are files ("input FILE", not CLI11's "input TEXT").
+  for (const Command& command : commands) {
+    for (CLI::Option* option : command.app->get_options()) {
+      if (option->get_positional()) option->type_name("FILE");
+    }
+  }
 
   try {
     app.parse(argc, argv);

@@ -111,6 +111,9 @@ TEST(CliHelp, ChoicesByNameAndAnExamplePerSubcommand) {
     ASSERT_EQ(help.exit_code, 0) << command;
     EXPECT_EQ(help.out.find("ENUM"), std::string::npos) << help.out;
     EXPECT_EQ(help.out.find("BOOLEAN"), std::string::npos) << help.out;
+    EXPECT_EQ(help.out.find("{false}"), std::string::npos) << help.out;
+    EXPECT_EQ(help.out.find("TEXT"), std::string::npos) << help.out;
+    EXPECT_EQ(help.out.find(" in ["), std::string::npos) << help.out;
     EXPECT_EQ(help.out.find("->"), std::string::npos) << help.out;
     EXPECT_NE(help.out.find("Example: sspc " + std::string(command)), std::string::npos) << help.out;
   }
