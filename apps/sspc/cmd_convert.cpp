@@ -22,7 +22,8 @@ struct ConvertOptions {
 };
 
 // What a PLY output cannot hold of a LAS input, named so that nothing is lost silently.
-void warn_dropped(const PointCloud& cloud, const std::string& output, const std::string& extension) {
+void warn_dropped(const PointCloud& cloud, const std::string& output,
+                  const std::string& extension) {
   if (format_from_extension("x" + extension) == PointCloudFormat::kLas) return;
   const std::string name = is_stdio(output) ? "stdout" : output;
   std::string dropped = cloud.las.names();
@@ -81,7 +82,8 @@ Command add_convert_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("input", o->input,
                   "Point cloud (.ply, .las, .xyz/.pts/.xyzrgb/.xyzn, .pcd; '-' reads stdin)")
       ->required();
-  app->add_option("output", o->output, "Point cloud to write (.ply or .las; '-' writes stdout)")->required();
+  app->add_option("output", o->output, "Point cloud to write (.ply or .las; '-' writes stdout)")
+      ->required();
   add_format_option(app, o->format);
   app->add_flag("--ascii", o->ascii, "Write ASCII PLY instead of binary");
   app->add_flag("-f,--force", o->force, "Overwrite the output if it exists");

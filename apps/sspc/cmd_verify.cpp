@@ -21,7 +21,8 @@ int run_verify(const VerifyOptions& o, const GlobalOptions& global) {
   if (!model.ok()) return report_failure(model.status());
   const Status s = model->verify();
   if (!s.ok()) return report_failure(s);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (o.json) {
     const ModelInfo m = model->info();
     Json json = json_report("verify");
@@ -42,8 +43,9 @@ int run_verify(const VerifyOptions& o, const GlobalOptions& global) {
 
 Command add_verify_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<VerifyOptions>();
-  CLI::App* app = root.add_subcommand(
-      "verify", "Check an .sspc file: every checksum and a decode of every block; prints \"ok\" or what is corrupt");
+  CLI::App* app = root.add_subcommand("verify",
+                                      "Check an .sspc file: every checksum and a decode of every "
+                                      "block; prints \"ok\" or what is corrupt");
   app->add_option("file", o->input, "Compressed model (.sspc; '-' reads stdin)")->required();
   app->add_flag("--json", o->json, "Machine-readable result on stdout (keys: docs/CLI.md)");
   app->footer("Example: sspc verify model.sspc");

@@ -60,8 +60,12 @@ int report(const Status& status, int code) {
 
 }  // namespace
 
-int report_failure(const Status& status) { return report(status, kExitFailure); }
-int report_usage_error(const Status& status) { return report(status, kExitUsage); }
+int report_failure(const Status& status) {
+  return report(status, kExitFailure);
+}
+int report_usage_error(const Status& status) {
+  return report(status, kExitUsage);
+}
 
 Json json_report(std::string_view command) {
   Json json;
@@ -70,8 +74,12 @@ Json json_report(std::string_view command) {
   return json;
 }
 
-Json json_vec3(const Vec3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
-Json json_vec3(const Vec3f& v) { return json_vec3(Vec3d(v.cast<double>())); }
+Json json_vec3(const Vec3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+Json json_vec3(const Vec3f& v) {
+  return json_vec3(Vec3d(v.cast<double>()));
+}
 
 void print_json(const Json& json) {
   print_line(json.dump(-1, ' ', false, Json::error_handler_t::replace));
@@ -81,7 +89,8 @@ void report_errors_as_json(std::string command, std::vector<std::string> files) 
   json_errors() = JsonErrors{true, std::move(command), std::move(files)};
 }
 
-Json json_error(std::string_view command, const std::string& message, const std::vector<std::string>& files) {
+Json json_error(std::string_view command, const std::string& message,
+                const std::vector<std::string>& files) {
   Json json = json_report(command);
   json["error"] = message;
   const std::string* file = file_of(message, files);
@@ -93,7 +102,8 @@ StatusOr<std::span<const std::byte>> stdin_bytes() {
   static std::optional<std::string> bytes;
   if (!bytes) {
     if (::isatty(STDIN_FILENO) != 0) {
-      return invalid_argument("stdin: is a terminal; pipe a file in, or name the file instead of '-'");
+      return invalid_argument(
+          "stdin: is a terminal; pipe a file in, or name the file instead of '-'");
     }
     std::string data;
     char buffer[1 << 16];
@@ -114,7 +124,8 @@ StatusOr<std::span<const std::byte>> stdin_bytes() {
 StatusOr<CompressedModel> open_model(const std::string& path) {
   if (!is_stdio(path)) return CompressedModel::open(path);
   SSPC_ASSIGN_OR_RETURN(const std::span<const std::byte> bytes, stdin_bytes());
-  auto model = CompressedModel::from_bytes(std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  auto model = CompressedModel::from_bytes(
+      std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
   if (!model.ok()) return model.status().with_context(kStdinName);
   return model;
 }
@@ -141,7 +152,8 @@ Status copy_to_stdout(const std::filesystem::path& path) {
     }
   }
   std::fclose(in);
-  if (status.ok() && std::fflush(stdout) != 0) status = io_error(std::string("stdout: ") + std::strerror(errno));
+  if (status.ok() && std::fflush(stdout) != 0)
+    status = io_error(std::string("stdout: ") + std::strerror(errno));
   return status;
 }
 
@@ -155,7 +167,9 @@ Status write_output(const std::string& output, const std::string& extension,
   if (ec) return io_error("stdout: no temporary folder: " + ec.message());
   std::string name = (dir / ("sspc-stdout-XXXXXX" + extension)).string();
   const int fd = ::mkstemps(name.data(), static_cast<int>(extension.size()));
-  if (fd < 0) return io_error("stdout: cannot create a temporary file in " + dir.string() + ": " + std::strerror(errno));
+  if (fd < 0)
+    return io_error("stdout: cannot create a temporary file in " + dir.string() + ": " +
+                    std::strerror(errno));
   ::close(fd);
   Status status = write(name);
   if (status.ok()) status = copy_to_stdout(name);
@@ -178,7 +192,8 @@ void add_format_option(CLI::App* app, std::string& format) {
 Status check_json_and_stdout(bool json, const std::vector<std::string>& outputs) {
   if (!json) return Status();
   for (const std::string& out : outputs) {
-    if (is_stdio(out)) return invalid_argument("--json and an output on stdout ('-') cannot share it; choose one");
+    if (is_stdio(out))
+      return invalid_argument("--json and an output on stdout ('-') cannot share it; choose one");
   }
   return Status();
 }
@@ -196,7 +211,8 @@ StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options) {
   StatusOr<PointCloud> cloud = invalid_argument("nothing read");
   if (is_stdio(path)) {
     auto bytes = stdin_bytes();
-    cloud = bytes.ok() ? read_point_cloud(*bytes, kStdinName, options) : StatusOr<PointCloud>(bytes.status());
+    cloud = bytes.ok() ? read_point_cloud(*bytes, kStdinName, options)
+                       : StatusOr<PointCloud>(bytes.status());
   } else {
     cloud = read_point_cloud(path, options);
   }
@@ -232,7 +248,8 @@ const char* node_kind(const std::filesystem::file_status& status) {
 
 }  // namespace
 
-Status check_outputs(const std::vector<std::string>& inputs, const std::vector<std::string>& outputs, bool force) {
+Status check_outputs(const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs, bool force) {
   namespace fs = std::filesystem;
   if (std::count_if(inputs.begin(), inputs.end(), is_stdio) > 1) {
     return invalid_argument("'-' (stdin) names more than one input; stdin can be read only once");
@@ -247,7 +264,8 @@ Status check_outputs(const std::vector<std::string>& inputs, const std::vector<s
     if (out.empty()) return invalid_argument("an output file name is empty");
     if (path.filename().empty()) return invalid_argument(out + ": names a directory, not a file");
     if (path.filename().native().size() > NAME_MAX) {
-      return invalid_argument(out + ": the file name is longer than " + std::to_string(NAME_MAX) + " bytes");
+      return invalid_argument(out + ": the file name is longer than " + std::to_string(NAME_MAX) +
+                              " bytes");
     }
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
@@ -256,17 +274,20 @@ Status check_outputs(const std::vector<std::string>& inputs, const std::vector<s
       for (const std::string& in : inputs) {
         if (is_stdio(in)) continue;
         std::error_code same_ec;
-        if (fs::equivalent(in, path, same_ec)) return invalid_argument(out + ": is the input; refusing to overwrite it");
+        if (fs::equivalent(in, path, same_ec))
+          return invalid_argument(out + ": is the input; refusing to overwrite it");
       }
       if (!fs::is_regular_file(status)) {
-        return invalid_argument(out + ": is " + node_kind(status) + "; sspc writes only regular files");
+        return invalid_argument(out + ": is " + node_kind(status) +
+                                "; sspc writes only regular files");
       }
       if (!force) return invalid_argument(out + ": exists; pass -f/--force to overwrite it");
     }
     const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
     const fs::file_status dir_status = fs::status(dir, ec);
     if (!fs::is_directory(dir_status)) {
-      return invalid_argument(out + ": the folder " + dir.string() + (fs::exists(dir_status) ? " is not a folder" : " does not exist"));
+      return invalid_argument(out + ": the folder " + dir.string() +
+                              (fs::exists(dir_status) ? " is not a folder" : " does not exist"));
     }
     if (::access(dir.c_str(), W_OK | X_OK) != 0) {
       return io_error(out + ": cannot write in " + dir.string() + ": " + std::strerror(errno));
@@ -291,7 +312,8 @@ CLI::Validator number_in(double lo, double hi, bool open_low) {
         char* end = nullptr;
         errno = 0;
         const double v = std::strtod(begin, &end);
-        if (end == begin || *end != '\0' || !std::isfinite(v)) return "'" + text + "' is not a finite number";
+        if (end == begin || *end != '\0' || !std::isfinite(v))
+          return "'" + text + "' is not a finite number";
         if (v < lo || v > hi || (open_low && v == lo)) return "'" + text + "' is outside " + name;
         return std::string();
       },

@@ -69,11 +69,14 @@ void print_json(const Json& json);
 // the one of `files` the message is about (null when none is).
 void report_errors_as_json(std::string command, std::vector<std::string> files);
 // The error object itself (tests and usage errors).
-Json json_error(std::string_view command, const std::string& message, const std::vector<std::string>& files);
+Json json_error(std::string_view command, const std::string& message,
+                const std::vector<std::string>& files);
 
 // --- "-": stdin and stdout ---------------------------------------------------------------------
 
-inline bool is_stdio(const std::string& path) { return path == "-"; }
+inline bool is_stdio(const std::string& path) {
+  return path == "-";
+}
 // What messages call stdin.
 inline constexpr const char* kStdinName = "stdin";
 
@@ -116,7 +119,8 @@ void print_line(const std::string& text);
 // with --force: the rename that commits an output would replace the node itself), a file name of
 // at most NAME_MAX bytes in an existing, writable directory, no two outputs the same file, and
 // no existing file unless `force`. At most one input may be "-" (stdin).
-Status check_outputs(const std::vector<std::string>& inputs, const std::vector<std::string>& outputs, bool force);
+Status check_outputs(const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs, bool force);
 
 // A CLI11 validator for numbers in [lo, hi] (or (lo, hi] with `open_low`): NaN, infinities and
 // text that is not wholly a number are usage errors, like any value out of range.

@@ -2,8 +2,8 @@
 //
 // Each subcommand lives in its own cmd_*.cpp; this file wires them together, applies the global
 // options (--threads, --quiet) and maps outcomes to exit codes: 0 success, 1 failure, 2 usage.
-#include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
+#include <CLI/CLI.hpp>
 
 #include <csignal>
 #include <cstdio>
@@ -22,9 +22,9 @@ namespace {
 std::vector<std::string> files_named(const CLI::App& app) {
   std::vector<std::string> files;
   for (const CLI::Option* option : app.get_options()) {
-    const bool file = option->get_positional() || option->check_lname("output") || option->check_lname("compressed") ||
-                      option->check_lname("camera-path") || option->check_lname("compare") ||
-                      option->check_lname("times");
+    const bool file = option->get_positional() || option->check_lname("output") ||
+                      option->check_lname("compressed") || option->check_lname("camera-path") ||
+                      option->check_lname("compare") || option->check_lname("times");
     if (!file) continue;
     for (const std::string& value : option->results()) files.push_back(value);
   }
@@ -51,7 +51,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1024).description(""))
       ->type_name("0..1024")
       ->capture_default_str();
-  app.add_flag("-q,--quiet", global.quiet, "No progress display, even on a terminal, and no summary line (--json still prints)");
+  app.add_flag(
+      "-q,--quiet", global.quiet,
+      "No progress display, even on a terminal, and no summary line (--json still prints)");
 
   std::vector<Command> commands;
   commands.push_back(add_info_command(app, global));
@@ -96,7 +98,8 @@ int main(int argc, char** argv) {
   for (const Command& command : commands) {
     if (command.app->parsed()) {
       const CLI::Option* json = command.app->get_option_no_throw("--json");
-      if (json != nullptr && json->count() > 0) report_errors_as_json(command.app->get_name(), files_named(*command.app));
+      if (json != nullptr && json->count() > 0)
+        report_errors_as_json(command.app->get_name(), files_named(*command.app));
       const int code = command.run();
       std::fflush(stdout);
       return code;

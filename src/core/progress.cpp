@@ -28,7 +28,8 @@ std::string si(double v) {
 // "1.2 M points/s"; bytes as "35 MB/s".
 std::string rate_text(double rate, std::string_view unit) {
   std::string s = si(rate);
-  if (unit == "bytes") return s.append(std::isalpha(static_cast<unsigned char>(s.back())) ? "B/s" : " B/s");
+  if (unit == "bytes")
+    return s.append(std::isalpha(static_cast<unsigned char>(s.back())) ? "B/s" : " B/s");
   return s.append(" ").append(unit).append("/s");
 }
 
@@ -60,7 +61,9 @@ void RateMeter::sample(double seconds, std::uint64_t done) {
   last_done_ = done;
 }
 
-void RateMeter::reset() { *this = RateMeter(tau_); }
+void RateMeter::reset() {
+  *this = RateMeter(tau_);
+}
 
 std::string format_duration(double seconds) {
   if (!std::isfinite(seconds) || seconds < 0 || seconds > 360000.0 * 24) return "--:--";
@@ -85,13 +88,17 @@ std::string format_progress_line(const ProgressLine& line) {
   out.append(line.stage).append(":");
   if (line.finished) {
     const double average = line.elapsed > 0 ? static_cast<double>(line.done) / line.elapsed : 0.0;
-    out.append(" ").append(count_text(line.done, line.unit)).append(" in ").append(format_duration(line.elapsed));
+    out.append(" ")
+        .append(count_text(line.done, line.unit))
+        .append(" in ")
+        .append(format_duration(line.elapsed));
     if (average > 0) out.append(" (").append(rate_text(average, line.unit)).append(")");
     return out;
   }
   if (line.total > 0) {
     char pct[16];
-    const double percent = std::min(100.0, 100.0 * static_cast<double>(line.done) / static_cast<double>(line.total));
+    const double percent =
+        std::min(100.0, 100.0 * static_cast<double>(line.done) / static_cast<double>(line.total));
     std::snprintf(pct, sizeof pct, " %5.1f%%", percent);
     out.append(pct);
   } else {
@@ -100,8 +107,8 @@ std::string format_progress_line(const ProgressLine& line) {
   if (line.rate > 0) out.append("  ").append(rate_text(line.rate, line.unit));
   if (line.total > 0) {
     const double left = line.done >= line.total ? 0.0
-                        : line.rate > 0         ? static_cast<double>(line.total - line.done) / line.rate
-                                                : -1.0;
+                        : line.rate > 0 ? static_cast<double>(line.total - line.done) / line.rate
+                                        : -1.0;
     out.append("  ETA ").append(format_duration(left));
   } else {
     out.append("  ").append(format_duration(line.elapsed));
@@ -118,7 +125,9 @@ TerminalProgress::~TerminalProgress() {
   if (in_stage_) end_stage();
 }
 
-void TerminalProgress::set_stages(int count) { stage_count_ = count < 0 ? 0 : count; }
+void TerminalProgress::set_stages(int count) {
+  stage_count_ = count < 0 ? 0 : count;
+}
 
 void TerminalProgress::begin_stage(std::string_view name, std::uint64_t total,
                                    std::string_view unit) {
@@ -145,8 +154,8 @@ void TerminalProgress::begin_stage(std::string_view name, std::uint64_t total,
 void TerminalProgress::advance(std::uint64_t done) {
   done_.fetch_add(done, std::memory_order_relaxed);
   if (!enabled_) return;
-  const std::int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                               Clock::now() - stage_start_).count();
+  const std::int64_t now =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - stage_start_).count();
   std::int64_t next = next_draw_ns_.load(std::memory_order_relaxed);
   if (now < next) return;
   // One thread wins the right to draw; the others go back to work.

@@ -46,14 +46,16 @@ PointCloudFormat format_from_extension(const std::filesystem::path& path) {
 
 namespace {
 
-StatusOr<PointCloud> read_with(PointCloudFormat format, std::span<const std::byte> bytes, const std::string& name,
-                               const ReadOptions& options) {
+StatusOr<PointCloud> read_with(PointCloudFormat format, std::span<const std::byte> bytes,
+                               const std::string& name, const ReadOptions& options) {
   switch (format) {
     case PointCloudFormat::kPly: return io::read_ply_with_options(bytes, name, options);
     case PointCloudFormat::kPcd: return io::read_pcd_with_options(bytes, name, options);
     case PointCloudFormat::kLas: return io::read_las_with_options(bytes, name, options);
-    case PointCloudFormat::kXyzRgb: return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kColors);
-    case PointCloudFormat::kXyzN: return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kNormals);
+    case PointCloudFormat::kXyzRgb:
+      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kColors);
+    case PointCloudFormat::kXyzN:
+      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kNormals);
     case PointCloudFormat::kXyz:
     case PointCloudFormat::kAuto: break;
   }

@@ -38,7 +38,8 @@ std::map<std::string, DocumentedKeys> documented() {
     std::string cell;
     while (std::getline(row, cell, '|')) cells.push_back(cell);
     if (cells.size() < 4) continue;
-    const std::string key = cells[0].substr(cells[0].find('`') + 1, cells[0].rfind('`') - cells[0].find('`') - 1);
+    const std::string key =
+        cells[0].substr(cells[0].find('`') + 1, cells[0].rfind('`') - cells[0].find('`') - 1);
     sections[section].all.insert(key);
     if (cells[3].find("always") != std::string::npos) sections[section].always.insert(key);
   }
@@ -70,8 +71,10 @@ class JsonKeys : public ::testing::Test {
     std::set<std::string> keys;
     flatten(json, "", keys);
     const DocumentedKeys& doc = docs_.at(section);
-    for (const std::string& key : keys) EXPECT_TRUE(doc.all.count(key)) << section << ": undocumented key " << key;
-    for (const std::string& key : doc.always) EXPECT_TRUE(keys.count(key)) << section << ": missing key " << key;
+    for (const std::string& key : keys)
+      EXPECT_TRUE(doc.all.count(key)) << section << ": undocumented key " << key;
+    for (const std::string& key : doc.always)
+      EXPECT_TRUE(keys.count(key)) << section << ": missing key " << key;
     seen_[section].insert(keys.begin(), keys.end());
   }
 
@@ -92,18 +95,23 @@ TEST_F(JsonKeys, EverySubcommandWritesTheDocumentedKeys) {
   check("info (.sspc)", sspc(dir, "info --json " + d + "m.sspc"));
   check("verify", sspc(dir, "verify --json " + d + "m.sspc"));
   check("decode", sspc(dir, "decode --json " + d + "m.sspc " + d + "dec.ply"));
-  check("eval", sspc(dir, "eval --json " + bunny() + " " + d + "dec.ply --compressed " + d + "m.sspc"));
+  check("eval",
+        sspc(dir, "eval --json " + bunny() + " " + d + "dec.ply --compressed " + d + "m.sspc"));
   check("eval", sspc(dir, "eval --json " + bunny() + " " + d + "n.ply"));
-  check("render", sspc(dir, "render --json " + bunny() + " -o " + d + "a.png --size 32x32 --memory-budget 64"));
-  check("render", sspc(dir, "render --json " + d + "m.sspc -o " + d + "b.png --size 32x32 --compare " + d + "a.png"));
-  check("render", sspc(dir, "render --json " + bunny() + " -o " + d + "f.png --size 16x16 --orbit 2"));
+  check("render", sspc(dir, "render --json " + bunny() + " -o " + d +
+                                "a.png --size 32x32 --memory-budget 64"));
+  check("render", sspc(dir, "render --json " + d + "m.sspc -o " + d +
+                                "b.png --size 32x32 --compare " + d + "a.png"));
+  check("render",
+        sspc(dir, "render --json " + bunny() + " -o " + d + "f.png --size 16x16 --orbit 2"));
   check("error", sspc(dir, "info --json " + d + "absent.ply"), 1);
   check("error", sspc(dir, "encode --json --level 12 " + bunny() + " " + d + "x.sspc"), 2);
 
   for (const auto& [section, doc] : docs_) {
     ASSERT_TRUE(seen_.count(section)) << "no run checks docs/CLI.md's section " << section;
     for (const std::string& key : doc.all) {
-      EXPECT_TRUE(seen_[section].count(key)) << section << ": documented key " << key << " never written";
+      EXPECT_TRUE(seen_[section].count(key))
+          << section << ": documented key " << key << " never written";
     }
   }
 }

@@ -16,12 +16,14 @@ namespace {
 
 // Runs a shell pipeline in which "SSPC" stands for the executable; stdout and stderr captured.
 CliRun pipeline(const test::TempDir& dir, std::string command) {
-  for (std::size_t at = command.find("SSPC"); at != std::string::npos; at = command.find("SSPC", at)) {
+  for (std::size_t at = command.find("SSPC"); at != std::string::npos;
+       at = command.find("SSPC", at)) {
     command.replace(at, 4, SSPC_CLI_PATH);
   }
   const auto out = dir.path() / "stdout.txt";
   const auto err = dir.path() / "stderr.txt";
-  const std::string line = "set -o pipefail; (" + command + ") >" + out.string() + " 2>" + err.string() + " </dev/null";
+  const std::string line =
+      "set -o pipefail; (" + command + ") >" + out.string() + " 2>" + err.string() + " </dev/null";
   const int status = std::system(("bash -c '" + line + "'").c_str());
   CliRun run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
@@ -30,7 +32,9 @@ CliRun pipeline(const test::TempDir& dir, std::string command) {
   return run;
 }
 
-nlohmann::json parse_json(const CliRun& run) { return nlohmann::json::parse(run.out, nullptr, false); }
+nlohmann::json parse_json(const CliRun& run) {
+  return nlohmann::json::parse(run.out, nullptr, false);
+}
 
 class Pipes : public ::testing::Test {
  protected:
@@ -43,7 +47,8 @@ class Pipes : public ::testing::Test {
 };
 
 TEST_F(Pipes, DecodeToStdoutIntoInfoFromStdin) {
-  const CliRun decoded = sspc(dir_, "decode --json " + model_ + " " + (dir_.path() / "d.ply").string());
+  const CliRun decoded =
+      sspc(dir_, "decode --json " + model_ + " " + (dir_.path() / "d.ply").string());
   ASSERT_EQ(decoded.exit_code, 0) << decoded.err;
   const CliRun run = pipeline(dir_, "SSPC decode " + model_ + " - | SSPC info --json -");
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -71,13 +76,16 @@ TEST_F(Pipes, ModelsAndLasThroughPipes) {
   const CliRun model = pipeline(dir_, "cat " + model_ + " | SSPC info --json -");
   ASSERT_EQ(model.exit_code, 0) << model.err;
   EXPECT_EQ(parse_json(model)["format"], "sspc");
-  const CliRun las = pipeline(dir_, "SSPC decode " + model_ + " - --format las | SSPC info --json -");
+  const CliRun las =
+      pipeline(dir_, "SSPC decode " + model_ + " - --format las | SSPC info --json -");
   ASSERT_EQ(las.exit_code, 0) << las.err;
   EXPECT_TRUE(parse_json(las).contains("las_point_format")) << las.out;
-  const CliRun encoded = pipeline(dir_, "cat " + bunny() + " | SSPC encode - - --level 9 | SSPC verify -");
+  const CliRun encoded =
+      pipeline(dir_, "cat " + bunny() + " | SSPC encode - - --level 9 | SSPC verify -");
   ASSERT_EQ(encoded.exit_code, 0) << encoded.err;
   EXPECT_EQ(encoded.out, "ok\n");
-  const CliRun png = pipeline(dir_, "SSPC render " + model_ + " -o - --size 16x16 | head -c 8 | od -c");
+  const CliRun png =
+      pipeline(dir_, "SSPC render " + model_ + " -o - --size 16x16 | head -c 8 | od -c");
   ASSERT_EQ(png.exit_code, 0) << png.err;
   EXPECT_NE(png.out.find("P   N   G"), std::string::npos) << png.out;
 }
@@ -94,10 +102,12 @@ TEST_F(Pipes, StdinMisuseIsRefused) {
 }
 
 TEST_F(Pipes, QuietSilencesTheSummaryButNotJson) {
-  const CliRun quiet = sspc(dir_, "--quiet decode " + model_ + " " + (dir_.path() / "q.ply").string());
+  const CliRun quiet =
+      sspc(dir_, "--quiet decode " + model_ + " " + (dir_.path() / "q.ply").string());
   ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
   EXPECT_TRUE(quiet.out.empty() && quiet.err.empty()) << quiet.out << quiet.err;
-  const CliRun encode = sspc(dir_, "-q encode " + bunny() + " " + (dir_.path() / "q.sspc").string() + " --level 9");
+  const CliRun encode =
+      sspc(dir_, "-q encode " + bunny() + " " + (dir_.path() / "q.sspc").string() + " --level 9");
   ASSERT_EQ(encode.exit_code, 0) << encode.err;
   EXPECT_TRUE(encode.out.empty()) << encode.out;
   const CliRun json = sspc(dir_, "-q verify --json " + model_);
@@ -106,7 +116,8 @@ TEST_F(Pipes, QuietSilencesTheSummaryButNotJson) {
 
 TEST(CliHelp, ChoicesByNameAndAnExamplePerSubcommand) {
   test::TempDir dir;
-  for (const char* command : {"info", "normals", "eval", "encode", "decode", "verify", "render", "convert"}) {
+  for (const char* command :
+       {"info", "normals", "eval", "encode", "decode", "verify", "render", "convert"}) {
     const CliRun help = sspc(dir, std::string(command) + " --help");
     ASSERT_EQ(help.exit_code, 0) << command;
     EXPECT_EQ(help.out.find("ENUM"), std::string::npos) << help.out;
@@ -115,7 +126,8 @@ TEST(CliHelp, ChoicesByNameAndAnExamplePerSubcommand) {
     EXPECT_EQ(help.out.find("TEXT"), std::string::npos) << help.out;
     EXPECT_EQ(help.out.find(" in ["), std::string::npos) << help.out;
     EXPECT_EQ(help.out.find("->"), std::string::npos) << help.out;
-    EXPECT_NE(help.out.find("Example: sspc " + std::string(command)), std::string::npos) << help.out;
+    EXPECT_NE(help.out.find("Example: sspc " + std::string(command)), std::string::npos)
+        << help.out;
   }
   const CliRun render = sspc(dir, "render --help");
   EXPECT_NE(render.out.find("lambert|normal|depth|codeword"), std::string::npos) << render.out;

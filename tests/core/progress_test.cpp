@@ -18,7 +18,8 @@ TEST(Progress, LineShowsStageOfJobPercentRateAndEta) {
   line.unit = "patches";
   line.rate = 50;
   line.elapsed = 40;
-  EXPECT_EQ(format_progress_line(line), "[5/7] code book: greedy clustering:  25.0%  50 patches/s  ETA 2:30");
+  EXPECT_EQ(format_progress_line(line),
+            "[5/7] code book: greedy clustering:  25.0%  50 patches/s  ETA 2:30");
 }
 
 TEST(Progress, RatesCarrySiPrefixesAndBytesAreBytes) {
@@ -35,7 +36,8 @@ TEST(Progress, RatesCarrySiPrefixesAndBytesAreBytes) {
   line.rate = 1234567;
   line.done = 0;
   line.total = 3600 * 1234567ull;
-  EXPECT_EQ(format_progress_line(line), "[1/1] reading bunny.ply:   0.0%  1.23 M points/s  ETA 1:00:00");
+  EXPECT_EQ(format_progress_line(line),
+            "[1/1] reading bunny.ply:   0.0%  1.23 M points/s  ETA 1:00:00");
 }
 
 TEST(Progress, UnknownRateTotalOrCount) {
@@ -66,7 +68,8 @@ TEST(Progress, FinishedLineGivesTotalsAndTheAverage) {
   line.unit = "points";
   line.elapsed = 2;
   line.finished = true;
-  EXPECT_EQ(format_progress_line(line), "[2/4] normals: PCA: 34834 points in 0:02 (17.4 k points/s)");
+  EXPECT_EQ(format_progress_line(line),
+            "[2/4] normals: PCA: 34834 points in 0:02 (17.4 k points/s)");
 }
 
 TEST(Progress, DurationsAsMinutesOrHours) {
