@@ -43,7 +43,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto progress = make_progress(global);
-  progress_stages(progress.get(), 1 + encode_stages(PointCloud(), o.normals));
+  // With --normals auto the count depends on the file: unknown until it is read.
+  if (o.normals != NormalMode::kAuto) progress_stages(progress.get(), 1 + encode_stages(PointCloud(), o.normals));
   ReadOptions read;
   read.progress = progress.get();
   auto cloud = read_cloud(o.input, read);

@@ -186,6 +186,7 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
       }
       if ((i & 0xFFFF) == 0xFFFF) progress_advance(progress, 0x10000);
     }
+    progress_advance(progress, order.size() & 0xFFFF);  // the last, partial chunk
   }
   progress_end(progress);
   const std::size_t initial = centres.size();

@@ -41,6 +41,14 @@ std::string count_text(std::uint64_t n, std::string_view unit) {
   return std::to_string(n).append(" ").append(unit);
 }
 
+// A finished stage's time: "0.47 s" under a minute, else as format_duration.
+std::string seconds_text(double seconds) {
+  if (!(seconds < 59.5)) return format_duration(seconds);
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f s", seconds);
+  return buf;
+}
+
 }  // namespace
 
 void RateMeter::sample(double seconds, std::uint64_t done) {
@@ -91,7 +99,7 @@ std::string format_progress_line(const ProgressLine& line) {
     out.append(" ")
         .append(count_text(line.done, line.unit))
         .append(" in ")
-        .append(format_duration(line.elapsed));
+        .append(seconds_text(line.elapsed));
     if (average > 0) out.append(" (").append(rate_text(average, line.unit)).append(")");
     return out;
   }

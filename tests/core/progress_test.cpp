@@ -69,7 +69,7 @@ TEST(Progress, FinishedLineGivesTotalsAndTheAverage) {
   line.elapsed = 2;
   line.finished = true;
   EXPECT_EQ(format_progress_line(line),
-            "[2/4] normals: PCA: 34834 points in 0:02 (17.4 k points/s)");
+            "[2/4] normals: PCA: 34834 points in 2.00 s (17.4 k points/s)");
 }
 
 TEST(Progress, DurationsAsMinutesOrHours) {
