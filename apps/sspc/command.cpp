@@ -259,7 +259,14 @@ Status check_outputs(const std::vector<std::string>& inputs,
   }
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     const std::string& out = outputs[i];
-    if (is_stdio(out)) continue;  // stdout: a pipe or a terminal, never renamed over
+    if (is_stdio(out)) {
+      // As zstd does: binary data on a terminal helps no one.
+      if (::isatty(STDOUT_FILENO) != 0) {
+        return invalid_argument(
+            "'-': stdout is a terminal; redirect it to a file or a pipe, or name the output");
+      }
+      continue;  // a pipe or a file the shell opened, never renamed over
+    }
     const fs::path path(out);
     if (out.empty()) return invalid_argument("an output file name is empty");
     if (path.filename().empty()) return invalid_argument(out + ": names a directory, not a file");

@@ -114,7 +114,7 @@ std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);
 void print_line(const std::string& text);
 
 // Checks, before anything is read or written, that each of `outputs` may be written: "-" (stdout,
-// at most once) always may; any other output must be not one of
+// at most once) may unless stdout is a terminal; any other output must be not one of
 // the `inputs` (refused even with --force), not a directory, device, FIFO or socket (refused even
 // with --force: the rename that commits an output would replace the node itself), a file name of
 // at most NAME_MAX bytes in an existing, writable directory, no two outputs the same file, and
