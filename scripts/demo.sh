@@ -22,3 +22,15 @@ build/sspc eval data/bunny.ply out/bunny_decoded.ply --compressed out/bunny.sspc
 build/sspc render data/bunny.ply -o out/bunny.png --size 512x512 --force
 build/sspc render out/bunny.sspc -o out/bunny_compressed.png --size 512x512 --force
 build/sspc render out/bunny.sspc -o out/bunny_codewords.png --size 512x512 --shade codeword --force
+set +x
+cat <<DONE
+
+Done. The outputs are in $PWD/out:
+  out/bunny.png             the point cloud's MLS surface, ray-traced
+  out/bunny_compressed.png  the compressed model, ray-traced without decoding it
+  out/bunny_codewords.png   the same, coloured by code word
+  out/bunny.sspc            the compressed model (build/sspc info out/bunny.sspc describes it)
+  out/bunny_decoded.ply     the model decoded
+  out/bunny_normals.ply     the cloud with estimated normals
+The sspc used is build/sspc; README.md's commands run from $PWD as written.
+DONE

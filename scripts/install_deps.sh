@@ -3,7 +3,7 @@
 # present, so repeated runs cost nothing.
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflann-dev libtbb-dev
-          libzstd-dev libcli11-dev libpng-dev libgtest-dev libbenchmark-dev
+          libzstd-dev libcli11-dev nlohmann-json3-dev libpng-dev libgtest-dev libbenchmark-dev
           python3-dev pybind11-dev python3-numpy python3-pytest)  # the last four: the Python package, python/
 missing=()
 for p in "${packages[@]}"; do

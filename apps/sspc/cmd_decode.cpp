@@ -1,5 +1,5 @@
 // sspc decode IN.sspc OUT.ply|OUT.las: the whole model, one patch (--patch) or a box (--box), as
-// PLY or LAS by the output's extension, in the source's world coordinates.
+// PLY or LAS by the output's extension (or --format on stdout), in the source's world coordinates.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,7 +8,6 @@
 #include <string>
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/io.hpp"
 
@@ -19,6 +18,7 @@ struct DecodeCliOptions {
   std::string input;
   std::string output;
   std::string box;
+  std::string format = "ply";
   long long patch = -1;
   bool overlap = false;
   bool ascii = false;
@@ -41,11 +41,13 @@ std::optional<Box3f> parse_box(const std::string& text) {
 }
 
 int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
+  if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
   if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
-  auto model = CompressedModel::open(o.input);
+  auto model = open_model(o.input);
   if (!model.ok()) return report_failure(model.status());
   auto progress = make_progress(global);
+  progress_stages(progress.get(), 1);
   DecodeOptions options;
   options.overlap = o.overlap;
   options.progress = progress.get();
@@ -65,31 +67,34 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   }
   if (!cloud.ok()) return report_failure(cloud.status());  // names the file already
   cloud->metadata = model->metadata();
+  progress.reset();  // finish the progress line before the summary
   const double decode_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   PlyWriteOptions ply;
   ply.encoding = o.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
   ply.comments.push_back("decoded by sspc from " +
-                         std::filesystem::path(o.input).filename().string());
-  const Status written = write_point_cloud(*cloud, o.output, ply);
+                         (is_stdio(o.input) ? std::string(kStdinName)
+                                            : std::filesystem::path(o.input).filename().string()));
+  const Status written = write_output(o.output, cloud_extension(o.output, o.format),
+                                      [&](const std::filesystem::path& path) { return write_point_cloud(*cloud, path, ply); });
   if (!written.ok()) return report_failure(written);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double rate = decode_seconds > 0 ? static_cast<double>(cloud->size()) / decode_seconds : 0;
 
   if (o.json) {
-    JsonWriter json;
-    json.begin_object();
-    json.field("input", o.input).field("output", o.output);
-    json.field("points", static_cast<std::uint64_t>(cloud->size()));
-    json.field("decode_seconds", decode_seconds).field("seconds", seconds);
-    json.field("points_per_second", rate);
-    json.end_object();
-    print_line(json.str());
-  } else {
-    std::fprintf(stderr, "%s: %zu points in %.3f s (decode %.1f M points/s)\n", o.output.c_str(),
-                 cloud->size(), seconds, rate / 1e6);
+    Json json = json_report("decode");
+    json["input"] = o.input;
+    json["output"] = o.output;
+    json["points"] = cloud->size();
+    json["decode_seconds"] = decode_seconds;
+    json["seconds"] = seconds;
+    json["points_per_second"] = rate;
+    print_json(json);
+  } else if (!global.quiet) {
+    std::fprintf(stderr, "%s: %zu points in %.3f s (decode %.1f M points/s)\n",
+                 is_stdio(o.output) ? "stdout" : o.output.c_str(), cloud->size(), seconds, rate / 1e6);
   }
   return kExitOk;
 }
@@ -101,8 +106,10 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
   CLI::App* app =
       root.add_subcommand("decode",
                           "Decode an .sspc file (all of it, one patch or a box) to PLY or LAS");
-  app->add_option("input", o->input, "Compressed model (.sspc)")->required();
-  app->add_option("output", o->output, "Point cloud to write (.ply or .las)")->required();
+  app->add_option("input", o->input, "Compressed model (.sspc; '-' reads stdin)")->required();
+  app->add_option("output", o->output, "Point cloud to write (.ply or .las; '-' writes stdout, see --format)")
+      ->required();
+  add_format_option(app, o->format);
   auto* box =
       app->add_option("--box", o->box, "Only the points in this box")
           ->type_name("X0,Y0,Z0,X1,Y1,Z1")
@@ -110,18 +117,19 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
               [](std::string& text) -> std::string {
                 return parse_box(text) ? std::string() : "expected six finite numbers, min ≤ max";
               },
-              "BOX"));
+              ""));
   app->add_option("--patch", o->patch,
                   "Only patch K (its region, or all its stored points with --overlap)")
       ->type_name("K")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Validator(CLI::NonNegativeNumber).description(""))
       ->excludes(box);
   app->add_flag("--overlap", o->overlap,
                 "Keep every stored point of every patch, no region test (whole spheres for files "
                 "encoded with --full-spheres)");
   app->add_flag("--ascii", o->ascii, "Write ASCII PLY instead of binary");
   app->add_flag("-f,--force", o->force, "Overwrite the output if it exists");
-  app->add_flag("--json", o->json, "Machine-readable summary on stdout");
+  app->add_flag("--json", o->json, "Machine-readable summary on stdout (keys: docs/CLI.md)");
+  app->footer("Example: sspc decode model.sspc out.ply --box 0,0,0,1,1,1   (or: sspc decode model.sspc - | sspc info -)");
   return {app, [o, &global] { return run_decode(*o, global); }};
 }
 

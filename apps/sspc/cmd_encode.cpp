@@ -1,5 +1,5 @@
 // sspc encode IN OUT.sspc: compress a point cloud by its self-similarity (paper §4;
-// docs/FORMAT.md).
+// docs/FORMAT.md). IN or OUT may be "-" (stdin, stdout).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -9,7 +9,6 @@
 #include <string>
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
 
@@ -32,22 +31,34 @@ struct EncodeCliOptions {
   bool json = false;
 };
 
+// The stages encode() begins (src/codec): normals when it estimates them (neighbours, PCA,
+// orientation), the patch centres (three), patches and descriptors, the code book, writing.
+int encode_stages(const PointCloud& cloud, NormalMode mode) {
+  const bool estimate = mode == NormalMode::kEstimate || (mode == NormalMode::kAuto && !cloud.has_normals());
+  return (estimate ? 3 : 0) + 3 + 1 + 1 + 1;
+}
+
 int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
+  if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
   if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto progress = make_progress(global);
+  // With --normals auto the count depends on the file: unknown until it is read.
+  if (o.normals != NormalMode::kAuto) progress_stages(progress.get(), 1 + encode_stages(PointCloud(), o.normals));
   ReadOptions read;
   read.progress = progress.get();
   auto cloud = read_cloud(o.input, read);
   if (!cloud.ok()) return report_failure(cloud.status());
+  const std::string input_name = is_stdio(o.input) ? kStdinName : o.input;
   // The codec keeps positions, normals and colours; a LAS file's own fields are named, not lost
   // silently.
   if (!cloud->las.empty()) {
     std::fprintf(stderr, "sspc: warning: %s: the .sspc model keeps positions%s; dropped %s\n",
-                 o.input.c_str(), cloud->has_colors() ? " and colours" : "",
+                 input_name.c_str(), cloud->has_colors() ? " and colours" : "",
                  cloud->las.names().c_str());
     cloud->las.clear();
   }
+  progress_stages(progress.get(), 1 + encode_stages(*cloud, o.normals));
   const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   EncodeOptions options;
@@ -61,52 +72,57 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
-  auto stats = encode(std::move(*cloud), o.output, options);
-  if (!stats.ok()) return report_failure(stats.status().with_context(o.input));
+  StatusOr<EncodeStats> stats = invalid_argument("nothing encoded");
+  const Status written = write_output(o.output, ".sspc", [&](const std::filesystem::path& path) {
+    stats = encode(std::move(*cloud), path, options);
+    return stats.ok() ? Status() : stats.status().with_context(input_name);
+  });
+  if (!written.ok()) return report_failure(written);
+  progress.reset();  // finish the progress line before the summary
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double rate = seconds > 0 ? static_cast<double>(stats->points) / seconds : 0;
 
   if (o.json) {
-    JsonWriter json;
-    json.begin_object()
-        .field("input", o.input)
-        .field("output", o.output)
-        .field("level", o.level)
-        .field("points", stats->points)
-        .field("patches", stats->patches)
-        .field("codewords", stats->codewords)
-        .field("codebook_ratio", stats->codebook_ratio)
-        .field("codeword_points", stats->codeword_points)
-        .field("untrimmed_codeword_points", stats->untrimmed_codeword_points)
-        .field("position_bits", stats->position_bits)
-        .field("position_step", stats->position_step)
-        .field("spacing", stats->spacing)
-        .field("patch_radius", stats->patch_radius)
-        .field("coverage_radius", stats->coverage_radius)
-        .field("max_coverage_distance", stats->max_coverage_distance)
-        .field("covered", stats->max_coverage_distance <= stats->coverage_radius)
-        .field("candidates_tested", stats->candidates_tested)
-        .field("file_bytes", stats->file_bytes)
-        .field("codebook_bytes", stats->codebook_bytes)
-        .field("patch_bytes", stats->patch_bytes)
-        .field("bits_per_point", stats->bits_per_point)
-        .field("read_seconds", read_seconds)
-        .field("normals_seconds", stats->seconds_normals)
-        .field("centres_seconds", stats->seconds_centres)
-        .field("codebook_seconds", stats->seconds_codebook)
-        .field("descriptors_seconds", stats->seconds_descriptors)
-        .field("clustering_seconds", stats->seconds_codebook - stats->seconds_descriptors)
-        .field("write_seconds", stats->seconds_writing)
-        .field("seconds", seconds)
-        .field("points_per_second", rate)
-        .end_object();
-    print_line(json.str());
-  } else {
-    std::printf("%s: %llu points -> %s: %llu bytes (%.3f bpp), %llu patches, %llu code words (ratio %.1f), %.2f s (%.3g points/s)\n",
-                o.input.c_str(), static_cast<unsigned long long>(stats->points), o.output.c_str(),
-                static_cast<unsigned long long>(stats->file_bytes), stats->bits_per_point,
-                static_cast<unsigned long long>(stats->patches), static_cast<unsigned long long>(stats->codewords),
-                stats->codebook_ratio, seconds, rate);
+    Json json = json_report("encode");
+    json["input"] = o.input;
+    json["output"] = o.output;
+    json["level"] = o.level;
+    json["points"] = stats->points;
+    json["patches"] = stats->patches;
+    json["codewords"] = stats->codewords;
+    json["codebook_ratio"] = stats->codebook_ratio;
+    json["codeword_points"] = stats->codeword_points;
+    json["untrimmed_codeword_points"] = stats->untrimmed_codeword_points;
+    json["position_bits"] = stats->position_bits;
+    json["position_step"] = stats->position_step;
+    json["spacing"] = stats->spacing;
+    json["patch_radius"] = stats->patch_radius;
+    json["coverage_radius"] = stats->coverage_radius;
+    json["max_coverage_distance"] = stats->max_coverage_distance;
+    json["covered"] = stats->max_coverage_distance <= stats->coverage_radius;
+    json["candidates_tested"] = stats->candidates_tested;
+    json["file_bytes"] = stats->file_bytes;
+    json["codebook_bytes"] = stats->codebook_bytes;
+    json["patch_bytes"] = stats->patch_bytes;
+    json["bits_per_point"] = stats->bits_per_point;
+    json["read_seconds"] = read_seconds;
+    json["normals_seconds"] = stats->seconds_normals;
+    json["centres_seconds"] = stats->seconds_centres;
+    json["codebook_seconds"] = stats->seconds_codebook;
+    json["descriptors_seconds"] = stats->seconds_descriptors;
+    json["clustering_seconds"] = stats->seconds_codebook - stats->seconds_descriptors;
+    json["write_seconds"] = stats->seconds_writing;
+    json["seconds"] = seconds;
+    json["points_per_second"] = rate;
+    print_json(json);
+  } else if (!global.quiet) {
+    std::fprintf(summary_stream({o.output}),
+                 "%s: %llu points -> %s: %llu bytes (%.3f bits per point), %llu patches, %llu code words (ratio %.1f), "
+                 "%.2f s (%.3g points/s)\n",
+                 input_name.c_str(), static_cast<unsigned long long>(stats->points),
+                 is_stdio(o.output) ? "stdout" : o.output.c_str(), static_cast<unsigned long long>(stats->file_bytes),
+                 stats->bits_per_point, static_cast<unsigned long long>(stats->patches),
+                 static_cast<unsigned long long>(stats->codewords), stats->codebook_ratio, seconds, rate);
   }
   return kExitOk;
 }
@@ -116,20 +132,25 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
 Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<EncodeCliOptions>();
   CLI::App* app = root.add_subcommand("encode", "Compress a point cloud into an .sspc file");
-  app->add_option("input", o->input, "Point cloud to read (PLY, XYZ/PTS, PCD)")->required();
-  app->add_option("output", o->output, "Compressed model to write (.sspc)")->required();
+  app->add_option("input", o->input, "Point cloud to read (PLY, LAS, XYZ/PTS, PCD; '-' reads stdin)")->required();
+  app->add_option("output", o->output, "Compressed model to write (.sspc; '-' writes stdout)")->required();
   app->add_option("-l,--level", o->level, "0 (most detail) .. 9 (smallest file)")
-      ->check(CLI::Range(0, 9))
+      ->check(CLI::Range(0, 9).description(""))
+      ->type_name("0..9")
       ->capture_default_str();
   app->add_option("--patch-points", o->patch_points, "Expected points per patch (overrides the level)")
-      ->check(CLI::Range(8, 4096));
+      ->check(CLI::Range(8, 4096).description(""))
+      ->type_name("8..4096");
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")
-      ->check(number_in(0, 1000, true));
+      ->check(number_in(0, 1000, true))
+      ->type_name("0<X<=1000");
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
-      ->check(number_in(0, 1000, true));
+      ->check(number_in(0, 1000, true))
+      ->type_name("0<X<=1000");
   app->add_option("--position-bits", o->position_bits,
                   "Code-word grid: 2 patch radii in 2^bits steps (overrides the level's step)")
-      ->check(CLI::Range(4, 16));
+      ->check(CLI::Range(4, 16).description(""))
+      ->type_name("4..16");
   app->add_flag("--store-normals", o->store_normals,
                 "Store the code words' normals too (positions only by default)");
   app->add_flag("--full-spheres", o->full_spheres,
@@ -137,13 +158,17 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                 "instance decodes are dropped");
   const std::map<std::string, NormalMode> modes{
       {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
-  app->add_option("--normals", o->normals, "auto: the file's normals if any, else estimate; keep; estimate")
-      ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case))
+  app->add_option("--normals", o->normals,
+                  "auto: the file's normals if any, else estimate them; keep: require the file's; estimate: "
+                  "always estimate")
+      ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case).description(""))
+      ->type_name("auto|keep|estimate")
       ->default_str("auto");
   app->add_option("--viewpoint", o->viewpoint, "Orient estimated normals towards this point")
-      ->check(kVec3Validator);
+      ->check(kVec3Validator)->type_name("X,Y,Z");
   app->add_flag("-f,--force", o->force, "Overwrite an existing output file");
-  app->add_flag("--json", o->json, "Machine-readable statistics on stdout");
+  app->add_flag("--json", o->json, "Machine-readable statistics on stdout (keys: docs/CLI.md)");
+  app->footer("Example: sspc encode scan.ply model.sspc --level 7   (or: cat scan.ply | sspc encode - model.sspc)");
   return {app, [o, &global] { return run_encode(*o, global); }};
 }
 

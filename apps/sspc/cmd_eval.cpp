@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/io.hpp"
 #include "sspc/metrics.hpp"
 #include "sspc/normals.hpp"
@@ -22,17 +21,17 @@ struct EvalCliOptions {
   std::string test;
   std::optional<double> peak;
   std::string compressed;
-  bool estimate_ref_normals = true;
+  bool no_estimate_normals = false;
   bool json = false;
 };
 
-void write_direction(JsonWriter& json, const DirectedError& e) {
-  json.begin_object()
-      .field("rms", e.rms)
-      .field("hausdorff", e.hausdorff)
-      .field("d1_mse", e.mse_d1);
-  if (e.has_d2) json.field("d2_mse", e.mse_d2);
-  json.end_object();
+Json direction(const DirectedError& e) {
+  Json json;
+  json["rms"] = e.rms;
+  json["hausdorff"] = e.hausdorff;
+  json["d1_mse"] = e.mse_d1;
+  if (e.has_d2) json["d2_mse"] = e.mse_d2;
+  return json;
 }
 
 std::string db(double v) {
@@ -46,7 +45,12 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
   if (options.peak && !(*options.peak > 0 && std::isfinite(*options.peak))) {
     return report_failure(invalid_argument("--peak must be a positive finite number"));
   }
+  if (is_stdio(options.ref) && is_stdio(options.test)) {
+    return report_usage_error(invalid_argument("'-' (stdin) names both clouds; stdin can be read only once"));
+  }
   auto progress = make_progress(global);
+  // Two reads, normals for REF when it has none, three passes (four with D2).
+  progress_stages(progress.get(), 2 + 4);
   // Both files' own values in double, about one origin: far from the origin float32 would
   // compare rounding instead of the clouds (docs/METRICS.md, "Coordinates far from the origin").
   std::vector<Vec3d> ref_stored, test_stored;
@@ -66,13 +70,14 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
   // D2 projects errors on REF's normals; a reference without them gets estimated ones so that
   // D2 is still reported (said in the output), unless the user opts out.
   const bool ref_had_normals = ref->has_normals();
-  if (!ref_had_normals && options.estimate_ref_normals) {
+  if (!ref_had_normals && !options.no_estimate_normals) {
     NormalOptions normal_options;
     normal_options.mode = NormalMode::kEstimate;
     normal_options.progress = progress.get();
     const Status status = ensure_normals(*ref, normal_options);
     if (!status.ok()) return report_failure(status.with_context(options.ref));
   }
+  progress_stages(progress.get(), 2 + (ref_had_normals || options.no_estimate_normals ? 0 : 3) + (ref->has_normals() ? 4 : 3));
   // Normal errors compare the files' own normals, never estimated ones.
   const bool compare_normals = ref_had_normals && test->has_normals();
   if (!compare_normals && test->has_normals()) test->normals.clear();
@@ -93,32 +98,36 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
   const char* ref_normals = ref_had_normals ? "file" : (ref->has_normals() ? "estimated" : "none");
 
   if (options.json) {
-    JsonWriter json;
-    json.begin_object();
-    json.field("ref", options.ref).field("test", options.test);
-    json.field("ref_points", r.ref_points).field("test_points", r.test_points);
-    json.field("ref_diagonal", r.ref_diagonal).field("peak", r.peak);
-    json.field("ref_normals", ref_normals);
-    json.key("ref_to_test");
-    write_direction(json, r.ref_to_test);
-    json.key("test_to_ref");
-    write_direction(json, r.test_to_ref);
-    json.field("rms", r.rms_max).field("hausdorff", r.hausdorff);
-    json.field("psnr", r.psnr_paper);  // null when infinite (identical clouds)
-    json.field("d1_mse", r.d1_mse).field("d1_psnr", r.d1_psnr);
-    if (r.has_d2) json.field("d2_mse", r.d2_mse).field("d2_psnr", r.d2_psnr);
-    json.field("identical", r.rms_max == 0.0);
+    Json json = json_report("eval");
+    json["ref"] = options.ref;
+    json["test"] = options.test;
+    json["ref_points"] = r.ref_points;
+    json["test_points"] = r.test_points;
+    json["ref_diagonal"] = r.ref_diagonal;
+    json["peak"] = r.peak;
+    json["ref_normals"] = ref_normals;
+    json["ref_to_test"] = direction(r.ref_to_test);
+    json["test_to_ref"] = direction(r.test_to_ref);
+    json["rms"] = r.rms_max;
+    json["hausdorff"] = r.hausdorff;
+    json["psnr"] = r.psnr_paper;  // null when infinite (identical clouds)
+    json["d1_mse"] = r.d1_mse;
+    json["d1_psnr"] = r.d1_psnr;
+    if (r.has_d2) {
+      json["d2_mse"] = r.d2_mse;
+      json["d2_psnr"] = r.d2_psnr;
+    }
+    json["identical"] = r.rms_max == 0.0;
     if (r.has_normal_error) {
-      json.field("normal_angle_mean_deg", r.normal_angle_mean_deg)
-          .field("normal_angle_p95_deg", r.normal_angle_p95_deg);
+      json["normal_angle_mean_deg"] = r.normal_angle_mean_deg;
+      json["normal_angle_p95_deg"] = r.normal_angle_p95_deg;
     }
     if (compressed_bytes) {
-      json.field("compressed", options.compressed)
-          .field("compressed_bytes", *compressed_bytes)
-          .field("bpp", bits_per_point(*compressed_bytes, r.ref_points));
+      json["compressed"] = options.compressed;
+      json["compressed_bytes"] = *compressed_bytes;
+      json["bits_per_point"] = bits_per_point(*compressed_bytes, r.ref_points);
     }
-    json.end_object();
-    print_line(json.str());
+    print_json(json);
     return kExitOk;
   }
   std::printf("reference  %s: %llu points, bounding-box diagonal %.9g, normals: %s\n",
@@ -158,17 +167,18 @@ Command add_eval_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<EvalCliOptions>();
   CLI::App* app = root.add_subcommand(
       "eval", "Distortion of TEST against REF: RMS, Hausdorff, PSNR (paper), MPEG D1/D2 PSNR");
-  app->add_option("ref", options->ref, "Reference (original) point cloud")
-      ->required();
-  app->add_option("test", options->test, "Test (decoded) point cloud")
-      ->required();
+  app->add_option("ref", options->ref, "Reference (original) point cloud ('-' reads stdin)")->required();
+  app->add_option("test", options->test, "Test (decoded) point cloud ('-' reads stdin)")->required();
   app->add_option("--peak", options->peak,
-                  "Peak for D1/D2 PSNR (default: REF's bounding-box diagonal)");
+                  "Peak for D1/D2 PSNR (default: REF's bounding-box diagonal)")
+      ->type_name("NUMBER");
   app->add_option("--compressed", options->compressed,
-                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)");
-  app->add_flag("!--no-estimate-normals", options->estimate_ref_normals,
+                  "Compressed file whose size gives bits per point (bytes x 8 / REF's points)")
+      ->type_name("FILE");
+  app->add_flag("--no-estimate-normals", options->no_estimate_normals,
                 "Skip D2 when REF has no normals instead of estimating them");
-  app->add_flag("--json", options->json, "Machine-readable output on stdout");
+  app->add_flag("--json", options->json, "Machine-readable output on stdout (keys: docs/CLI.md)");
+  app->footer("Example: sspc eval scan.ply decoded.ply --compressed model.sspc");
   return {app, [options, &global] { return run_eval(*options, global); }};
 }
 

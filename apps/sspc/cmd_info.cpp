@@ -5,7 +5,6 @@
 #include <string>
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/io.hpp"
 #include "sspc/neighbors.hpp"
 
@@ -68,53 +67,54 @@ std::string crs_summary(const CloudMetadata& m) {
 int run_info(const InfoOptions& options, const GlobalOptions& global) {
   if (is_sspc_file(options.input)) return run_info_sspc(options.input, options.json);
   auto progress = make_progress(global);
+  progress_stages(progress.get(), 1);
   ReadOptions read_options;
   read_options.progress = progress.get();
   auto cloud = read_cloud(options.input, read_options);
   if (!cloud.ok()) return report_failure(cloud.status());
 
   std::error_code ec;
-  const auto file_bytes = std::filesystem::file_size(options.input, ec);
+  std::uintmax_t file_bytes = 0;
+  if (is_stdio(options.input)) {
+    file_bytes = stdin_bytes()->size();  // read already
+  } else {
+    file_bytes = std::filesystem::file_size(options.input, ec);
+  }
   const Box3f local_box = cloud->bounding_box();
   const Box3d box(cloud->origin + local_box.min().cast<double>(),
                   cloud->origin + local_box.max().cast<double>());
   const double diagonal = bounding_box_diagonal(*cloud);
   const double spacing = nominal_spacing(*cloud);
-  const char* format = format_name(format_from_extension(options.input));
+  const char* format = format_name(is_stdio(options.input) ? PointCloudFormat::kAuto : format_from_extension(options.input));
 
   if (options.json) {
-    JsonWriter json;
-    json.begin_object();
-    json.field("file", options.input).field("format", format);
-    json.field("file_bytes", static_cast<std::uint64_t>(ec ? 0 : file_bytes));
-    json.field("points", static_cast<std::uint64_t>(cloud->size()));
-    json.field("normals", cloud->has_normals()).field("colors", cloud->has_colors());
-    json.field("las_attributes", cloud->las.names());
-    json.key("origin");
-    write_vec3(json, cloud->origin);
-    json.field("crs", cloud->metadata.has_crs());
-    json.field("comments", static_cast<std::uint64_t>(cloud->metadata.comments.size()));
+    Json json = json_report("info");
+    json["file"] = options.input;
+    json["format"] = format;
+    json["file_bytes"] = static_cast<std::uint64_t>(ec ? 0 : file_bytes);
+    json["points"] = cloud->size();
+    json["normals"] = cloud->has_normals();
+    json["colors"] = cloud->has_colors();
+    json["las_attributes"] = cloud->las.names();
+    json["origin"] = json_vec3(cloud->origin);
+    json["crs"] = cloud->metadata.has_crs();
+    json["comments"] = cloud->metadata.comments.size();
     if (cloud->metadata.las) {
       const LasSource& las = *cloud->metadata.las;
-      json.field("las_version", std::to_string(las.version_major) + "." +
-                                    std::to_string(las.version_minor));
-      json.field("las_point_format", static_cast<std::uint64_t>(las.point_format));
-      json.key("las_scale");
-      write_vec3(json, las.scale);
-      json.key("las_offset");
-      write_vec3(json, las.offset);
+      json["las_version"] = std::to_string(las.version_major) + "." + std::to_string(las.version_minor);
+      json["las_point_format"] = las.point_format;
+      json["las_scale"] = json_vec3(las.scale);
+      json["las_offset"] = json_vec3(las.offset);
     }
-    json.key("bbox_min");
-    write_vec3(json, box.min());
-    json.key("bbox_max");
-    write_vec3(json, box.max());
-    json.field("diagonal", diagonal).field("spacing", spacing);
-    json.end_object();
-    print_line(json.str());
+    json["bbox_min"] = json_vec3(box.min());
+    json["bbox_max"] = json_vec3(box.max());
+    json["diagonal"] = diagonal;
+    json["spacing"] = spacing;
+    print_json(json);
     return kExitOk;
   }
   const std::string attributes = attribute_names(*cloud);
-  std::printf("file        %s (%llu bytes, %s)\n", options.input.c_str(),
+  std::printf("file        %s (%llu bytes, %s)\n", is_stdio(options.input) ? kStdinName : options.input.c_str(),
               static_cast<unsigned long long>(ec ? 0 : file_bytes), format);
   std::printf("points      %zu\n", cloud->size());
   std::printf("attributes  %s\n", attributes.c_str());
@@ -137,9 +137,11 @@ Command add_info_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* app = root.add_subcommand("info", "Describe a point cloud: points, attributes, bounds, spacing");
   app->add_option("file", options->input,
-                  "Point cloud (.ply, .las, .xyz/.pts/.xyzrgb/.xyzn, .pcd) or compressed model (.sspc)")
+                  "Point cloud (.ply, .las, .xyz/.pts/.xyzrgb/.xyzn, .pcd) or compressed model (.sspc); '-' reads "
+                  "stdin")
       ->required();
-  app->add_flag("--json", options->json, "Machine-readable output on stdout");
+  app->add_flag("--json", options->json, "Machine-readable output on stdout (keys: docs/CLI.md)");
+  app->footer("Example: sspc info scan.ply   (or: sspc decode model.sspc - | sspc info -)");
   return {app, [options, &global] { return run_info(*options, global); }};
 }
 

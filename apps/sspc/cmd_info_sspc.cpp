@@ -7,12 +7,16 @@
 #include <string>
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/compressed_model.hpp"
 
 namespace sspc::cli {
 bool is_sspc_file(const std::string& path) {
   static constexpr char kMagic[8] = {'\x8A', 'S', 'P', 'C', '\r', '\n', '\x1A', '\n'};
+  if (is_stdio(path)) {
+    // The bytes stay for the reader that follows, which reports a failure to read them.
+    const auto bytes = stdin_bytes();
+    return bytes.ok() && bytes->size() >= sizeof kMagic && std::memcmp(bytes->data(), kMagic, sizeof kMagic) == 0;
+  }
   // Opening a FIFO would wait for a writer; anything but a regular file is left to the reader
   // that follows, which refuses it with a message naming what it is.
   std::error_code ec;
@@ -23,7 +27,7 @@ bool is_sspc_file(const std::string& path) {
 }
 
 int run_info_sspc(const std::string& path, bool as_json) {
-  auto model = CompressedModel::open(path);
+  auto model = open_model(path);
   if (!model.ok()) return report_failure(model.status());
   const ModelInfo m = model->info();
   std::string attributes = "positions";
@@ -31,44 +35,42 @@ int run_info_sspc(const std::string& path, bool as_json) {
   if (m.has_colors) attributes += " colors";
 
   if (as_json) {
-    JsonWriter json;
-    json.begin_object();
-    json.field("file", path).field("format", "sspc").field("version", m.version);
-    json.field("file_bytes", m.file_bytes);
-    json.key("origin");
-    write_vec3(json, model->origin());
-    json.field("crs", model->metadata().has_crs());
-    json.field("comments", static_cast<std::uint64_t>(model->metadata().comments.size()));
-    json.field("las_grid", model->metadata().las.has_value());
-    json.field("normals", m.has_normals).field("colors", m.has_colors);
-    json.field("source_points", m.source_points);
-    json.field("patches", m.patches).field("codewords", m.codewords);
-    json.field("codeword_points", m.codeword_points);
-    json.field("codebook_ratio", m.codebook_ratio).field("bits_per_point", m.bits_per_point);
-    json.field("patch_radius", double{m.patch_radius});
-    json.field("coverage_radius", double{m.coverage_radius});
-    json.field("codeword_radius", double{m.codeword_radius});
-    json.field("spacing", double{m.spacing});
-    json.key("bbox_min");
-    write_vec3(json, m.bounds.min());
-    json.key("bbox_max");
-    write_vec3(json, m.bounds.max());
-    json.field("position_bits", m.position_bits).field("normal_bits", m.normal_bits);
-    json.field("rotation_bits", m.rotation_bits);
-    json.field("translation_step", double{m.translation_step});
-    json.field("patches_per_block", static_cast<std::uint64_t>(m.patches_per_block));
-    json.field("codewords_per_block", static_cast<std::uint64_t>(m.codewords_per_block));
-    json.key("sections").begin_array();
-    json.begin_object().field("name", "header").field("offset", std::uint64_t{0});
-    json.field("bytes", m.header_bytes).end_object();
+    Json json = json_report("info");
+    json["file"] = path;
+    json["format"] = "sspc";
+    json["version"] = m.version;
+    json["file_bytes"] = m.file_bytes;
+    json["origin"] = json_vec3(model->origin());
+    json["crs"] = model->metadata().has_crs();
+    json["comments"] = model->metadata().comments.size();
+    json["las_grid"] = model->metadata().las.has_value();
+    json["normals"] = m.has_normals;
+    json["colors"] = m.has_colors;
+    json["source_points"] = m.source_points;
+    json["patches"] = m.patches;
+    json["codewords"] = m.codewords;
+    json["codeword_points"] = m.codeword_points;
+    json["codebook_ratio"] = m.codebook_ratio;
+    json["bits_per_point"] = m.bits_per_point;
+    json["patch_radius"] = double{m.patch_radius};
+    json["coverage_radius"] = double{m.coverage_radius};
+    json["codeword_radius"] = double{m.codeword_radius};
+    json["spacing"] = double{m.spacing};
+    json["bbox_min"] = json_vec3(m.bounds.min());
+    json["bbox_max"] = json_vec3(m.bounds.max());
+    json["position_bits"] = m.position_bits;
+    json["normal_bits"] = m.normal_bits;
+    json["rotation_bits"] = m.rotation_bits;
+    json["translation_step"] = double{m.translation_step};
+    json["patches_per_block"] = m.patches_per_block;
+    json["codewords_per_block"] = m.codewords_per_block;
+    Json sections = Json::array();
+    sections.push_back(Json{{"name", "header"}, {"offset", 0}, {"bytes", m.header_bytes}, {"raw_bytes", m.header_bytes}, {"blocks", 0}});
     for (const SectionInfo& s : m.sections) {
-      json.begin_object().field("name", s.name).field("offset", s.offset);
-      json.field("bytes", s.bytes).field("raw_bytes", s.raw_bytes).field("blocks", s.blocks);
-      json.end_object();
+      sections.push_back(Json{{"name", s.name}, {"offset", s.offset}, {"bytes", s.bytes}, {"raw_bytes", s.raw_bytes}, {"blocks", s.blocks}});
     }
-    json.end_array();
-    json.end_object();
-    print_line(json.str());
+    json["sections"] = std::move(sections);
+    print_json(json);
     return kExitOk;
   }
   auto pct = [&m](std::uint64_t b) {

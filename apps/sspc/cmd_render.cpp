@@ -16,7 +16,6 @@
 #include "core/atomic_file.hpp"
 
 #include "command.hpp"
-#include "json_writer.hpp"
 #include "sspc/io.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/render.hpp"
@@ -155,6 +154,10 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     return report_failure(internal_error("--size passed its validator but does not parse: " + o.size));
   }
   const bool sequence = !o.camera_path.empty() || o.orbit > 0;
+  if (sequence && is_stdio(o.output)) {
+    return report_usage_error(invalid_argument("-o -: stdout takes one image; a sequence needs a file name for its frames"));
+  }
+  if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
   std::vector<CameraLine> path_cameras;
   if (!o.camera_path.empty()) {
     auto lines = read_camera_path(o.camera_path);
@@ -200,8 +203,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   StatusOr<std::unique_ptr<RenderScene>> scene = invalid_argument("no scene");
   std::uint64_t points = 0;
   if (is_sspc_file(o.input)) {
-    auto model = CompressedModel::open(o.input);
+    auto model = open_model(o.input);
     if (!model.ok()) return report_failure(model.status());
+    progress_stages(progress.get(), 2);  // the scene's bricks, the image's rows
     points = model->info().source_points;
     const std::uint64_t budget =
         o.budget_mib > 0 ? static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024) : kDefaultMemoryBudget;
@@ -210,8 +214,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   } else {
     ReadOptions read;
     read.progress = progress.get();
+    progress_stages(progress.get(), 3);
     auto cloud = read_cloud(o.input, read);
     if (!cloud.ok()) return report_failure(cloud.status());
+    // Reading, normals when the cloud has none (three), the scene (two when paged), the image.
+    progress_stages(progress.get(), 1 + (cloud->has_normals() ? 0 : 3) + (o.budget_mib > 0 ? 2 : 1) + 1);
     NormalOptions normals;
     normals.progress = progress.get();
     if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input));
@@ -263,7 +270,8 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
       comparison = *compared;
     }
     const std::string path = sequence ? staging.stage(frame_path(o.output, f)).string() : o.output;
-    if (Status s = write_png(*image, path); !s.ok()) return report_failure(s);
+    const Status png = write_output(path, ".png", [&](const std::filesystem::path& p) { return write_png(*image, p); });
+    if (!png.ok()) return report_failure(png);
     const double rps = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
     char row[512];
     const Camera& c = cameras[f];
@@ -278,6 +286,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     frames.push_back(stats);
   }
   if (sequence) progress_end(progress.get());
+  progress.reset();  // finish the progress line before the summary
   if (sequence) {
     const std::filesystem::path staged = staging.stage(times);
     if (Status s = write_file_atomically(staged, std::as_bytes(std::span(csv.data(), csv.size()))); !s.ok()) {
@@ -304,58 +313,62 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   const double build = (*scene)->build_seconds();
   const double rays_per_second = total.render_seconds > 0 ? static_cast<double>(total.rays) / total.render_seconds : 0;
   if (o.json) {
-    JsonWriter json;
-    json.begin_object()
-        .field("input", o.input)
-        .field("output", o.output)
-        .field("points", points)
-        .field("width", options.width)
-        .field("height", options.height)
-        .field("frames", static_cast<std::uint64_t>(frames.size()))
-        .field("rays", total.rays)
-        .field("hits", total.hits)
-        .field("evaluations", total.evaluations)
-        .field("evaluations_per_hit", total.hits > 0 ? static_cast<double>(total.evaluations) / static_cast<double>(total.hits) : 0.0)
-        .field("build_seconds", build)
-        .field("render_seconds", total.render_seconds)
-        .field("frame_seconds_median", median)
-        .field("rays_per_second", rays_per_second)
-        .field("scene_bytes", bytes)
-        .field("scene_bytes_per_point", points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0)
-        .field("bytes_read", total.bytes_read)
-        .field("pages_read", total.pages_read);
+    Json json = json_report("render");
+    json["input"] = o.input;
+    json["output"] = o.output;
+    json["points"] = points;
+    json["width"] = options.width;
+    json["height"] = options.height;
+    json["frames"] = frames.size();
+    json["rays"] = total.rays;
+    json["hits"] = total.hits;
+    json["evaluations"] = total.evaluations;
+    json["evaluations_per_hit"] =
+        total.hits > 0 ? static_cast<double>(total.evaluations) / static_cast<double>(total.hits) : 0.0;
+    json["build_seconds"] = build;
+    json["render_seconds"] = total.render_seconds;
+    json["frame_seconds_median"] = median;
+    json["rays_per_second"] = rays_per_second;
+    json["scene_bytes"] = bytes;
+    json["scene_bytes_per_point"] = points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0;
+    json["bytes_read"] = total.bytes_read;
+    json["pages_read"] = total.pages_read;
     if (o.budget_mib > 0) {
-      json.field("memory_budget_bytes", static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024))
-          .field("within_budget", static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024);
+      json["memory_budget_bytes"] = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
+      json["within_budget"] = static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024;
     }
     if (comparison) {
-      json.field("compare", o.compare)
-          .field("psnr_hit_db", comparison->psnr_hit)
-          .field("hit_both", comparison->hit_both)
-          .field("hit_first_only", comparison->hit_first_only)
-          .field("hit_second_only", comparison->hit_second_only)
-          .field("hit_one_only_fraction", comparison->one_only_fraction());
+      json["compare"] = o.compare;
+      json["psnr_hit_db"] = comparison->psnr_hit;
+      json["hit_both"] = comparison->hit_both;
+      json["hit_first_only"] = comparison->hit_first_only;
+      json["hit_second_only"] = comparison->hit_second_only;
+      json["hit_one_only_fraction"] = comparison->one_only_fraction();
     }
     if (sequence) {
-      json.field("times", times).key("frame_seconds").begin_array();
-      for (const RenderStats& f : frames) json.value(f.render_seconds);
-      json.end_array().key("frame_bytes_read").begin_array();
-      for (const RenderStats& f : frames) json.value(f.bytes_read);
-      json.end_array();
+      json["times"] = times;
+      Json frame_seconds = Json::array();
+      Json frame_bytes = Json::array();
+      for (const RenderStats& f : frames) {
+        frame_seconds.push_back(f.render_seconds);
+        frame_bytes.push_back(f.bytes_read);
+      }
+      json["frame_seconds"] = std::move(frame_seconds);
+      json["frame_bytes_read"] = std::move(frame_bytes);
     }
-    json.end_object();
-    print_line(json.str());
-  } else if (sequence) {
+    print_json(json);
+  } else if (!global.quiet && sequence) {
     std::printf("%s: %llu points -> %zu frames %s (%dx%d), build %.2f s, frame median %.3f s (%.3g rays/s), times in %s\n",
                 o.input.c_str(), static_cast<unsigned long long>(points), frames.size(), frame_path(o.output, 0).c_str(),
                 options.width, options.height, build, median, rays_per_second, times.c_str());
-  } else {
-    std::printf("%s: %llu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
+  } else if (!global.quiet) {
+    std::fprintf(summary_stream({o.output}),
+                 "%s: %llu points -> %s (%dx%d), %llu of %llu rays hit, build %.2f s, render %.2f s (%.3g rays/s)\n",
                 o.input.c_str(), static_cast<unsigned long long>(points), o.output.c_str(), options.width, options.height,
                 static_cast<unsigned long long>(total.hits), static_cast<unsigned long long>(total.rays), build,
                 total.render_seconds, rays_per_second);
   }
-  if (comparison && !o.json) {
+  if (comparison && !o.json && !global.quiet) {
     std::printf("against %s: image PSNR %.2f dB over the %llu pixels both hit; %llu pixels hit here only, %llu there "
                 "only (%.3f%% of those hit)\n",
                 o.compare.c_str(), comparison->psnr_hit, static_cast<unsigned long long>(comparison->hit_both),
@@ -370,50 +383,63 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
 Command add_render_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<RenderCliOptions>();
   CLI::App* app = root.add_subcommand("render", "Ray-trace a point cloud's or a compressed model's MLS surface into a PNG");
-  app->add_option("input", o->input, "Point cloud (PLY, XYZ/PTS, PCD) or compressed model (.sspc)")->required();
-  app->add_option("-o,--output", o->output, "PNG file to write")->required();
+  app->add_option("input", o->input, "Point cloud (PLY, LAS, XYZ/PTS, PCD) or compressed model (.sspc); '-' reads stdin")
+      ->required();
+  app->add_option("-o,--output", o->output, "PNG file to write ('-' writes stdout)")->type_name("FILE")->required();
   app->add_option("--size", o->size, "Image size WIDTHxHEIGHT, 1..16384 pixels a side")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             int w = 0, h = 0;
             return parse_size(text, w, h) ? std::string() : "expected WIDTHxHEIGHT, each 1..16384, got '" + text + "'";
           },
-          "WxH"))
+          ""))
+      ->type_name("WxH")
       ->capture_default_str();
-  app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator);
-  app->add_option("--target", o->target, "Point the camera looks at (default: the cloud's centre)")->check(kVec3Validator);
-  app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator);
-  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(number_in(1, 170))->capture_default_str();
-  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(number_in(0.5, 20))->capture_default_str();
+  app->add_option("--eye", o->eye, "Camera position x,y,z (default: framing the cloud from +z)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--target", o->target, "Point the camera looks at (default: the cloud's centre)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--up", o->up, "Camera up vector (default: +y)")->check(kVec3Validator)->type_name("X,Y,Z");
+  app->add_option("--fov", o->fov, "Vertical field of view in degrees")->check(number_in(1, 170))
+      ->type_name("1..170")->capture_default_str();
+  app->add_option("--bandwidth", o->bandwidth, "MLS bandwidth h in point spacings")->check(number_in(0.5, 20))
+      ->type_name("0.5..20")->capture_default_str();
   const std::map<std::string, Shade> shades{{"lambert", Shade::kLambert},
                                             {"normal", Shade::kNormal},
                                             {"depth", Shade::kDepth},
                                             {"codeword", Shade::kCodeword}};
-  app->add_option("--shade", o->shade, "lambert, normal, depth, or codeword (a colour per code word)")
-      ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case))
+  app->add_option("--shade", o->shade,
+                  "lambert: diffuse shading; normal: the normal as a colour; depth: nearer is brighter; "
+                  "codeword: a colour per code word (compressed models)")
+      ->transform(CLI::CheckedTransformer(shades, CLI::ignore_case).description(""))
+      ->type_name("lambert|normal|depth|codeword")
       ->default_str("lambert");
   app->add_option("--memory-budget", o->budget_mib,
                   "MiB the scene may hold: a point cloud's points are paged in from a file through a cache of that "
                   "size; a compressed model's decoded bricks are cached within it (default 512)")
-      ->check(number_in(1, 1e7));
+      ->check(number_in(1, 1e7))
+      ->type_name("1..1e7");
   app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)")
-      ->check(CLI::ExistingDirectory);
+      ->check(CLI::Validator(CLI::ExistingDirectory).description(""))
+      ->type_name("DIR");
   app->add_option("--camera-path", o->camera_path,
                   "Render a sequence: one camera a line (eye x y z, target x y z [, up x y z [, fov]]); "
                   "frames go to OUT_0000.png, ... and each frame's time to a CSV")
-      ->check(CLI::ExistingFile);
+      ->check(CLI::Validator(CLI::ExistingFile).description(""))
+      ->type_name("FILE");
   app->add_option("--orbit", o->orbit, "Render a sequence of N frames circling the target (as --camera-path)")
-      ->check(CLI::Range(1, 100000))
+      ->check(CLI::Range(1, 100000).description(""))
+      ->type_name("1..100000")
       ->excludes("--camera-path");
-  app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)");
+  app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)")->type_name("FILE");
   app->add_option("--compare", o->compare,
                   "A PNG of the same size to compare the render with: image PSNR over the pixels both hit, and the "
                   "pixels hit in one only (docs/METRICS.md)")
-      ->check(CLI::ExistingFile)
+      ->check(CLI::Validator(CLI::ExistingFile).description(""))
+      ->type_name("FILE")
       ->excludes("--camera-path")
       ->excludes("--orbit");
   app->add_flag("-f,--force", o->force, "Overwrite existing output files");
-  app->add_flag("--json", o->json, "Machine-readable statistics on stdout");
+  app->add_flag("--json", o->json, "Machine-readable statistics on stdout (keys: docs/CLI.md)");
+  app->footer("Example: sspc render model.sspc -o model.png --size 512x512 --shade codeword");
   return {app, [o, &global] { return run_render(*o, global); }};
 }
 

@@ -1,5 +1,6 @@
 #include "command.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <climits>
@@ -8,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,15 +19,203 @@
 
 namespace sspc::cli {
 
-int report_failure(const Status& status) {
+namespace {
+
+// Set by report_errors_as_json.
+struct JsonErrors {
+  bool on = false;
+  std::string command;
+  std::vector<std::string> files;
+};
+JsonErrors& json_errors() {
+  static JsonErrors errors;
+  return errors;
+}
+
+// Which of `files` a message is about: the longest that heads it ("x.ply: ..."; "-" is named
+// "stdin"), else the first it mentions.
+const std::string* file_of(const std::string& message, const std::vector<std::string>& files) {
+  const std::string* best = nullptr;
+  std::size_t best_size = 0;
+  for (const std::string& f : files) {
+    const std::string name = is_stdio(f) ? kStdinName : f;
+    if (!name.empty() && message.starts_with(name + ":") && name.size() > best_size) {
+      best = &f;
+      best_size = name.size();
+    }
+  }
+  if (best != nullptr) return best;
+  for (const std::string& f : files) {
+    if (!f.empty() && !is_stdio(f) && message.find(f) != std::string::npos) return &f;
+  }
+  return nullptr;
+}
+
+int report(const Status& status, int code) {
   std::fprintf(stderr, "sspc: error: %s\n", status.message().c_str());
-  return kExitFailure;
+  const JsonErrors& errors = json_errors();
+  if (errors.on) print_json(json_error(errors.command, status.message(), errors.files));
+  return code;
+}
+
+}  // namespace
+
+int report_failure(const Status& status) {
+  return report(status, kExitFailure);
+}
+int report_usage_error(const Status& status) {
+  return report(status, kExitUsage);
+}
+
+Json json_report(std::string_view command) {
+  Json json;
+  json["schema"] = kJsonSchema;
+  json["command"] = std::string(command);
+  return json;
+}
+
+Json json_vec3(const Vec3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+Json json_vec3(const Vec3f& v) {
+  return json_vec3(Vec3d(v.cast<double>()));
+}
+
+void print_json(const Json& json) {
+  print_line(json.dump(-1, ' ', false, Json::error_handler_t::replace));
+}
+
+void report_errors_as_json(std::string command, std::vector<std::string> files) {
+  json_errors() = JsonErrors{true, std::move(command), std::move(files)};
+}
+
+Json json_error(std::string_view command, const std::string& message,
+                const std::vector<std::string>& files) {
+  Json json = json_report(command);
+  json["error"] = message;
+  const std::string* file = file_of(message, files);
+  json["file"] = file != nullptr ? Json(*file) : Json(nullptr);
+  return json;
+}
+
+StatusOr<std::span<const std::byte>> stdin_bytes() {
+  static std::optional<std::string> bytes;
+  if (!bytes) {
+    if (::isatty(STDIN_FILENO) != 0) {
+      return invalid_argument(
+          "stdin: is a terminal; pipe a file in, or name the file instead of '-'");
+    }
+    std::string data;
+    char buffer[1 << 16];
+    for (;;) {
+      const ssize_t n = ::read(STDIN_FILENO, buffer, sizeof buffer);
+      if (n == 0) break;
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        return io_error(std::string("stdin: ") + std::strerror(errno));
+      }
+      data.append(buffer, static_cast<std::size_t>(n));
+    }
+    bytes = std::move(data);
+  }
+  return std::as_bytes(std::span(bytes->data(), bytes->size()));
+}
+
+StatusOr<CompressedModel> open_model(const std::string& path) {
+  if (!is_stdio(path)) return CompressedModel::open(path);
+  SSPC_ASSIGN_OR_RETURN(const std::span<const std::byte> bytes, stdin_bytes());
+  auto model = CompressedModel::from_bytes(
+      std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  if (!model.ok()) return model.status().with_context(kStdinName);
+  return model;
+}
+
+namespace {
+
+// Copies `path`'s bytes to stdout; every short write and error is checked (a closed pipe is
+// EPIPE here: main ignores SIGPIPE so that the temporary file is still removed).
+Status copy_to_stdout(const std::filesystem::path& path) {
+  std::FILE* in = std::fopen(path.c_str(), "rb");
+  if (in == nullptr) return io_error(path.string() + ": " + std::strerror(errno));
+  std::fflush(stdout);
+  char buffer[1 << 16];
+  Status status;
+  for (;;) {
+    const std::size_t n = std::fread(buffer, 1, sizeof buffer, in);
+    if (n > 0 && std::fwrite(buffer, 1, n, stdout) != n) {
+      status = io_error(std::string("stdout: ") + std::strerror(errno));
+      break;
+    }
+    if (n < sizeof buffer) {
+      if (std::ferror(in)) status = io_error(path.string() + ": read failed");
+      break;
+    }
+  }
+  std::fclose(in);
+  if (status.ok() && std::fflush(stdout) != 0)
+    status = io_error(std::string("stdout: ") + std::strerror(errno));
+  return status;
+}
+
+}  // namespace
+
+Status write_output(const std::string& output, const std::string& extension,
+                    const std::function<Status(const std::filesystem::path&)>& write) {
+  if (!is_stdio(output)) return write(output);
+  std::error_code ec;
+  const std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+  if (ec) return io_error("stdout: no temporary folder: " + ec.message());
+  std::string name = (dir / ("sspc-stdout-XXXXXX" + extension)).string();
+  const int fd = ::mkstemps(name.data(), static_cast<int>(extension.size()));
+  if (fd < 0)
+    return io_error("stdout: cannot create a temporary file in " + dir.string() + ": " +
+                    std::strerror(errno));
+  ::close(fd);
+  Status status = write(name);
+  if (status.ok()) status = copy_to_stdout(name);
+  std::filesystem::remove(name, ec);
+  return status;
+}
+
+std::string cloud_extension(const std::string& output, const std::string& format) {
+  if (is_stdio(output)) return "." + format;
+  return std::filesystem::path(output).extension().string();
+}
+
+void add_format_option(CLI::App* app, std::string& format) {
+  app->add_option("--format", format, "Format of an output written to stdout ('-')")
+      ->check(CLI::IsMember({"ply", "las"}).description(""))
+      ->type_name("ply|las")
+      ->capture_default_str();
+}
+
+Status check_json_and_stdout(bool json, const std::vector<std::string>& outputs) {
+  if (!json) return Status();
+  for (const std::string& out : outputs) {
+    if (is_stdio(out))
+      return invalid_argument("--json and an output on stdout ('-') cannot share it; choose one");
+  }
+  return Status();
+}
+
+std::FILE* summary_stream(const std::vector<std::string>& outputs) {
+  for (const std::string& out : outputs) {
+    if (is_stdio(out)) return stderr;
+  }
+  return stdout;
 }
 
 StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options) {
   std::vector<std::string> warnings;
   options.warnings = &warnings;
-  StatusOr<PointCloud> cloud = read_point_cloud(path, options);
+  StatusOr<PointCloud> cloud = invalid_argument("nothing read");
+  if (is_stdio(path)) {
+    auto bytes = stdin_bytes();
+    cloud = bytes.ok() ? read_point_cloud(*bytes, kStdinName, options)
+                       : StatusOr<PointCloud>(bytes.status());
+  } else {
+    cloud = read_point_cloud(path, options);
+  }
   for (const std::string& warning : warnings) {
     std::fprintf(stderr, "sspc: warning: %s\n", warning.c_str());
   }
@@ -57,33 +248,53 @@ const char* node_kind(const std::filesystem::file_status& status) {
 
 }  // namespace
 
-Status check_outputs(const std::vector<std::string>& inputs, const std::vector<std::string>& outputs, bool force) {
+Status check_outputs(const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs, bool force) {
   namespace fs = std::filesystem;
+  if (std::count_if(inputs.begin(), inputs.end(), is_stdio) > 1) {
+    return invalid_argument("'-' (stdin) names more than one input; stdin can be read only once");
+  }
+  if (std::count_if(outputs.begin(), outputs.end(), is_stdio) > 1) {
+    return invalid_argument("'-' (stdout) names more than one output");
+  }
   for (std::size_t i = 0; i < outputs.size(); ++i) {
     const std::string& out = outputs[i];
+    if (is_stdio(out)) {
+      // As zstd does: binary data on a terminal helps no one.
+      if (::isatty(STDOUT_FILENO) != 0) {
+        return invalid_argument(
+            "'-': stdout is a terminal; redirect it to a file or a pipe, or name the output");
+      }
+      continue;  // a pipe or a file the shell opened, never renamed over
+    }
     const fs::path path(out);
     if (out.empty()) return invalid_argument("an output file name is empty");
     if (path.filename().empty()) return invalid_argument(out + ": names a directory, not a file");
     if (path.filename().native().size() > NAME_MAX) {
-      return invalid_argument(out + ": the file name is longer than " + std::to_string(NAME_MAX) + " bytes");
+      return invalid_argument(out + ": the file name is longer than " + std::to_string(NAME_MAX) +
+                              " bytes");
     }
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
     const bool exists = fs::exists(status);
     if (exists) {
       for (const std::string& in : inputs) {
+        if (is_stdio(in)) continue;
         std::error_code same_ec;
-        if (fs::equivalent(in, path, same_ec)) return invalid_argument(out + ": is the input; refusing to overwrite it");
+        if (fs::equivalent(in, path, same_ec))
+          return invalid_argument(out + ": is the input; refusing to overwrite it");
       }
       if (!fs::is_regular_file(status)) {
-        return invalid_argument(out + ": is " + node_kind(status) + "; sspc writes only regular files");
+        return invalid_argument(out + ": is " + node_kind(status) +
+                                "; sspc writes only regular files");
       }
       if (!force) return invalid_argument(out + ": exists; pass -f/--force to overwrite it");
     }
     const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
     const fs::file_status dir_status = fs::status(dir, ec);
     if (!fs::is_directory(dir_status)) {
-      return invalid_argument(out + ": the folder " + dir.string() + (fs::exists(dir_status) ? " is not a folder" : " does not exist"));
+      return invalid_argument(out + ": the folder " + dir.string() +
+                              (fs::exists(dir_status) ? " is not a folder" : " does not exist"));
     }
     if (::access(dir.c_str(), W_OK | X_OK) != 0) {
       return io_error(out + ": cannot write in " + dir.string() + ": " + std::strerror(errno));
@@ -108,11 +319,12 @@ CLI::Validator number_in(double lo, double hi, bool open_low) {
         char* end = nullptr;
         errno = 0;
         const double v = std::strtod(begin, &end);
-        if (end == begin || *end != '\0' || !std::isfinite(v)) return "'" + text + "' is not a finite number";
+        if (end == begin || *end != '\0' || !std::isfinite(v))
+          return "'" + text + "' is not a finite number";
         if (v < lo || v > hi || (open_low && v == lo)) return "'" + text + "' is outside " + name;
         return std::string();
       },
-      "NUMBER in " + name);
+      "");  // the option's type name shows the range in --help
 }
 
 std::optional<Vec3f> parse_vec3(const std::string& text) {
@@ -140,6 +352,6 @@ const CLI::Validator kVec3Validator(
     [](std::string& text) -> std::string {
       return parse_vec3(text) ? std::string() : "expected three finite numbers x,y,z";
     },
-    "X,Y,Z");
+    "");  // the options name their type X,Y,Z
 
 }  // namespace sspc::cli

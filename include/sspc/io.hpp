@@ -55,7 +55,12 @@ struct ReadOptions {
 StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
                                       const ReadOptions& options = {});
 
-// The same readers over bytes in memory; `name` is used in error messages.
+// The same over bytes in memory (a pipe read whole): the reader options.format names, else the
+// one the first bytes look like (extensions play no part); `name` ("stdin") heads messages.
+StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::string_view name,
+                                      const ReadOptions& options = {});
+
+// The readers over bytes in memory; `name` is used in error messages.
 StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name);
 StatusOr<PointCloud> read_xyz(std::span<const std::byte> data, std::string_view name);
 StatusOr<PointCloud> read_pcd(std::span<const std::byte> data, std::string_view name);

@@ -89,7 +89,7 @@ py::dict evaluate_clouds(const py::object& original, const py::object& decoded, 
   if (!compressed.is_none()) {
     const std::uint64_t bytes = compressed_size(compressed);
     d["compressed_bytes"] = bytes;
-    d["bpp"] = bits_per_point(bytes, r.ref_points);
+    d["bits_per_point"] = bits_per_point(bytes, r.ref_points);
   }
   return d;
 }
@@ -157,7 +157,7 @@ rms); inf for identical clouds where the CLI writes null), d1_mse, d1_psnr, d2_m
 (when the reference has normals, its own or, with estimate_normals=True, estimated ones),
 identical, normal_angle_mean_deg and normal_angle_p95_deg (when both clouds have their own
 normals), and with `compressed` (bytes, or the path of the compressed file) compressed_bytes and
-bpp. peak is MPEG's D1/D2 peak (default: the reference's bounding-box diagonal). The formulas are
+bits_per_point. peak is MPEG's D1/D2 peak (default: the reference's bounding-box diagonal). The formulas are
 in the repository's docs/METRICS.md. The GIL is released while computing.)doc");
   bind_synthetic(m);
 }

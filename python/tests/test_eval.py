@@ -32,7 +32,7 @@ def test_decoded_model_psnr_and_bits_per_point(bunny, bunny_model, bunny_model_p
     report = sspc.eval(bunny, bunny_model.decode_all(), compressed=bunny_model_path)
     assert 45 < report["psnr"] < 80
     assert report["compressed_bytes"] == bunny_model_path.stat().st_size
-    assert report["bpp"] == pytest.approx(bunny_model.info()["bits_per_point"])
+    assert report["bits_per_point"] == pytest.approx(bunny_model.info()["bits_per_point"])
     assert sspc.eval(bunny, bunny, compressed=b"x" * 100)["compressed_bytes"] == 100
 
 

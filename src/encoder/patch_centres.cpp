@@ -186,18 +186,21 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
       }
       if ((i & 0xFFFF) == 0xFFFF) progress_advance(progress, 0x10000);
     }
+    progress_advance(progress, order.size() & 0xFFFF);  // the last, partial chunk
   }
   progress_end(progress);
   const std::size_t initial = centres.size();
 
   const int rounds = std::max(options.repulsion_rounds, options.attraction_rounds);
-  progress_begin(progress, "centres: repulsion and feature attraction", static_cast<std::uint64_t>(rounds), "rounds");
+  // Counted in centres moved (each round moves every centre), so that the rate means something.
+  progress_begin(progress, "centres: repulsion and feature attraction",
+                 static_cast<std::uint64_t>(rounds) * centres.size(), "centres");
   std::vector<float> strength;
   if (options.attraction_rounds > 0) strength = feature_strength(cloud, points_tree);
   for (int round = 0; round < rounds; ++round) {
     if (round < options.repulsion_rounds) repulse(centres, spread, cloud, points_tree);
     if (round < options.attraction_rounds) attract(centres, radius, cloud, points_tree, strength);
-    progress_advance(progress, 1);
+    progress_advance(progress, centres.size());
   }
   progress_end(progress);
 

@@ -44,6 +44,26 @@ PointCloudFormat format_from_extension(const std::filesystem::path& path) {
   return PointCloudFormat::kAuto;
 }
 
+namespace {
+
+StatusOr<PointCloud> read_with(PointCloudFormat format, std::span<const std::byte> bytes,
+                               const std::string& name, const ReadOptions& options) {
+  switch (format) {
+    case PointCloudFormat::kPly: return io::read_ply_with_options(bytes, name, options);
+    case PointCloudFormat::kPcd: return io::read_pcd_with_options(bytes, name, options);
+    case PointCloudFormat::kLas: return io::read_las_with_options(bytes, name, options);
+    case PointCloudFormat::kXyzRgb:
+      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kColors);
+    case PointCloudFormat::kXyzN:
+      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kNormals);
+    case PointCloudFormat::kXyz:
+    case PointCloudFormat::kAuto: break;
+  }
+  return io::read_xyz_with_options(bytes, name, options);
+}
+
+}  // namespace
+
 StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
                                       const ReadOptions& options) {
   SSPC_ASSIGN_OR_RETURN(const MappedFile file, MappedFile::open(path));
@@ -53,24 +73,23 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
   if (format == PointCloudFormat::kAuto) format = sniff_format(io::as_text(file.bytes()));
 
   progress_begin(options.progress, "reading " + path.filename().string(), file.size(), "bytes");
-  StatusOr<PointCloud> cloud = [&] {
-    switch (format) {
-      case PointCloudFormat::kPly: return io::read_ply_with_options(file.bytes(), name, options);
-      case PointCloudFormat::kPcd: return io::read_pcd_with_options(file.bytes(), name, options);
-      case PointCloudFormat::kLas: return io::read_las_with_options(file.bytes(), name, options);
-      case PointCloudFormat::kXyzRgb:
-        return io::read_xyz_columns(file.bytes(), name, options, io::XyzSixColumns::kColors);
-      case PointCloudFormat::kXyzN:
-        return io::read_xyz_columns(file.bytes(), name, options, io::XyzSixColumns::kNormals);
-      case PointCloudFormat::kXyz:
-      case PointCloudFormat::kAuto: break;
-    }
-    return io::read_xyz_with_options(file.bytes(), name, options);
-  }();
+  StatusOr<PointCloud> cloud = read_with(format, file.bytes(), name, options);
   progress_end(options.progress);
   // A file that shrank under the mapping was read partly as zeros: whatever the parser made of
   // them, the reason is the truncation (core/mapped_file.hpp).
   if (Status intact = file.check_intact(); !intact.ok()) cloud = std::move(intact);
+  if (!cloud.ok() && options.positions_f64 != nullptr) options.positions_f64->clear();
+  return cloud;
+}
+
+StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::string_view name,
+                                      const ReadOptions& options) {
+  const std::string label(name);
+  PointCloudFormat format = options.format;
+  if (format == PointCloudFormat::kAuto) format = sniff_format(io::as_text(data));
+  progress_begin(options.progress, "reading " + label, data.size(), "bytes");
+  StatusOr<PointCloud> cloud = read_with(format, data, label, options);
+  progress_end(options.progress);
   if (!cloud.ok() && options.positions_f64 != nullptr) options.positions_f64->clear();
   return cloud;
 }

@@ -108,7 +108,7 @@ TEST(Cli, EvalOfANoisyCopyGivesAFinitePsnrAndBitsPerPoint) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("\"identical\":false"), std::string::npos) << run.out;
   EXPECT_EQ(run.out.find("\"psnr\":null"), std::string::npos) << run.out;
-  EXPECT_NE(run.out.find("\"bpp\":"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("\"bits_per_point\":"), std::string::npos) << run.out;
   CliRun bad_peak = sspc(dir, "eval " + (dir.path() / "ref.ply").string() + " " +
                                (dir.path() / "noisy.ply").string() + " --peak -1");
   EXPECT_EQ(bad_peak.exit_code, 1);
