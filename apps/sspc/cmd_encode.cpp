@@ -31,7 +31,7 @@ struct EncodeCliOptions {
   bool json = false;
 };
 
-// The stages encode() begins (src/codec): normals when it estimates them (neighbours, PCA,
+// The stages encode() begins (src/encoder): normals when it estimates them (neighbours, PCA,
 // orientation), the patch centres (three), patches and descriptors, the code book, writing.
 int encode_stages(const PointCloud& cloud, NormalMode mode) {
   const bool estimate = mode == NormalMode::kEstimate || (mode == NormalMode::kAuto && !cloud.has_normals());

@@ -25,7 +25,7 @@ struct QuantOptions {
   std::uint32_t patches_per_block = 64;   // bench/decode_bench: see FORMAT.md
   std::uint32_t codewords_per_block = 32;
   int zstd_level = 19;
-  // Drop the code-word points no instance's region claims (codec/codeword_trim.hpp): the
+  // Drop the code-word points no instance's region claims (encoder/codeword_trim.hpp): the
   // default decode is unchanged, the overlap decode no longer sees whole spheres.
   bool trim_unclaimed = false;
 };
