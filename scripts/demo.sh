@@ -2,7 +2,7 @@
 # The main job on the bundled sample (data/bunny.ply): install, build, then read the cloud,
 # estimate and orient normals and evaluate them, compress it, verify and decode the file, and
 # evaluate the decoded cloud against the original, and ray-trace the MLS surface of the original
-# (out/bunny.png) and of the compressed model without decoding it (out/bunny_compressed.png, and
+# (out/bunny.png) and of the compressed model rendered directly (out/bunny_compressed.png, and
 # out/bunny_codewords.png coloured by code word).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -27,7 +27,7 @@ cat <<DONE
 
 Done. The outputs are in $PWD/out:
   out/bunny.png             the point cloud's MLS surface, ray-traced
-  out/bunny_compressed.png  the compressed model, ray-traced without decoding it
+  out/bunny_compressed.png  the compressed model, ray-traced directly (bricks decoded as rays reach them)
   out/bunny_codewords.png   the same, coloured by code word
   out/bunny.sspc            the compressed model (build/sspc info out/bunny.sspc describes it)
   out/bunny_decoded.ply     the model decoded

@@ -1,5 +1,5 @@
 // sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
-// directly, without decoding it (paper §5).
+// directly, decoding only the bricks its rays reach (paper §5; docs/ARCHITECTURE.md, "Rendering").
 #include <algorithm>
 #include <charconv>
 #include <cmath>

@@ -5,8 +5,8 @@
 
 With open3d importable, the file is read by Open3D and its arrays handed to sspc, as a program
 holding an open3d.geometry.PointCloud would; without it, sspc reads the file itself and says so.
-The rendered image is the compressed model ray-traced directly, without decoding it (the paper's
-§5), and is written with sspc's own PNG writer.
+The rendered image is the compressed model ray-traced directly (the paper's §5), its bricks
+decoded as rays reach them, and is written with sspc's own PNG writer.
 """
 
 import argparse
