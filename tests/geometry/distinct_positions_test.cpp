@@ -56,7 +56,9 @@ TEST(DistinctPositions, GroupsCoincidentPointsByLowestIndex) {
 TEST(DistinctPositions, KnnEqualsTheTreeOverThePoints) {
   for (const unsigned seed : {1u, 2u, 3u}) {
     const std::vector<Vec3f> points = coincident_cloud(60, seed);
-    for (const std::size_t k : {1u, 16u, 40u, 500u}) {
+    // k = 500 (beyond most groups' reach) once: it is the slowest case by far under ASan.
+    for (const std::size_t k : {std::size_t{1}, std::size_t{16}, std::size_t{40}, seed == 1 ? std::size_t{500} : 0}) {
+      if (k == 0) continue;
       SCOPED_TRACE(testing::Message() << "seed " << seed << ", k " << k);
       expect_same_table(knn_of_own_points(points, k, nullptr), KdTree3(points).knn_batch(points, k));
     }

@@ -339,7 +339,7 @@ TEST(Renderer, PngRoundTripAndBadPngs) {
 
 // The direct render of a compressed model against the render of its decode (normals estimated
 // the same way on both sides): the bar, ≥ 35 dB over the pixels hit and ≤ 0.2% of them
-// hit by one only, at a fine, the default and a coarse level, positions only.
+// hit by one only, positions only.
 void expect_direct_matches_decoded(const PointCloud& source, int level, const RenderOptions& options) {
   test::TempDir dir;
   const auto path = dir.path() / "model.sspc";
@@ -369,7 +369,9 @@ TEST(Renderer, DirectRenderOfTheBunnyMatchesTheRenderOfItsDecode) {
   RenderOptions options;
   options.width = options.height = 192;
   options.camera = frame_bounds(cloud->bounding_box());
-  for (const int level : {0, 5, 9}) expect_direct_matches_decoded(*cloud, level, options);
+  // The finest and the coarsest level (level 5 is in the CLI's and Python's tests; all three on
+  // the real scans in scripts/bench_render.sh).
+  for (const int level : {0, 9}) expect_direct_matches_decoded(*cloud, level, options);
 }
 
 // A sphere split into many patches (a small patch radius at level 9 on a fine sampling): no
