@@ -291,34 +291,30 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   // Sections.
   std::string section[kSectionCount];
   std::uint64_t raw_totals[2] = {0, 0};
-  for (const BuiltBlock& b : codebook) {
-    BlockEntry e = b.entry;
-    e.offset = section[0].size();
-    section[0] += b.stored;
-    raw_totals[0] += e.raw_size;
-    put_u64(section[1], e.offset);
-    put_u32(section[1], e.stored_size);
-    put_u32(section[1], e.raw_size);
-    put_u32(section[1], e.crc32);
-    put_u32(section[1], e.first);
-    put_u32(section[1], e.count);
-    put_u32(section[1], e.point_count);
-  }
-  for (const BuiltBlock& b : patches) {
-    BlockEntry e = b.entry;
-    e.offset = section[2].size();
-    section[2] += b.stored;
-    raw_totals[1] += e.raw_size;
-    put_u64(section[3], e.offset);
-    put_u32(section[3], e.stored_size);
-    put_u32(section[3], e.raw_size);
-    put_u32(section[3], e.crc32);
-    put_u32(section[3], e.first);
-    put_u32(section[3], e.count);
-    put_u32(section[3], 0);
-    put_vec3(section[3], e.box.min());
-    put_vec3(section[3], e.box.max());
-  }
+  // One seek-table writer for both kinds (docs/FORMAT.md, "Blocks and seek tables"): a code-book
+  // entry carries its point count, a patch entry 0 there and its blocks' bounding box.
+  const auto append_blocks = [](const std::vector<BuiltBlock>& blocks, bool patch_blocks, std::string& data,
+                                std::string& table, std::uint64_t& raw_total) {
+    for (const BuiltBlock& b : blocks) {
+      BlockEntry e = b.entry;
+      e.offset = data.size();
+      data += b.stored;
+      raw_total += e.raw_size;
+      put_u64(table, e.offset);
+      put_u32(table, e.stored_size);
+      put_u32(table, e.raw_size);
+      put_u32(table, e.crc32);
+      put_u32(table, e.first);
+      put_u32(table, e.count);
+      put_u32(table, patch_blocks ? 0 : e.point_count);
+      if (patch_blocks) {
+        put_vec3(table, e.box.min());
+        put_vec3(table, e.box.max());
+      }
+    }
+  };
+  append_blocks(codebook, false, section[0], section[1], raw_totals[0]);
+  append_blocks(patches, true, section[2], section[3], raw_totals[1]);
   std::uint64_t offset = kHeaderSize;
   for (std::size_t i = 0; i < kSectionCount; ++i) {
     SectionEntry& s = h.sections[i];
