@@ -27,6 +27,7 @@ struct EncodeCliOptions {
   std::string viewpoint;
   bool store_normals = false;
   bool full_spheres = false;
+  bool keep_duplicates = false;
   bool force = false;
   bool json = false;
 };
@@ -69,6 +70,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (o.position_bits > 0) options.position_bits = o.position_bits;
   options.store_normals = o.store_normals;
   options.full_spheres = o.full_spheres;
+  options.keep_duplicates = o.keep_duplicates;
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
@@ -156,6 +158,8 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_flag("--full-spheres", o->full_spheres,
                 "Keep each code word's whole sphere (the paper's layout); by default points no "
                 "instance decodes are dropped");
+  app->add_flag("--keep-duplicates", o->keep_duplicates,
+                "Store every point, also several in one cell of the code words' grid (by default a cell keeps one)");
   const std::map<std::string, NormalMode> modes{
       {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
   app->add_option("--normals", o->normals,

@@ -27,6 +27,10 @@ struct EncodeOptions {
   // drops the points no instance's region claims: the decoded model is the same, the code book
   // about half the size, and only `decode --overlap` sees fewer points.
   bool full_spheres = false;
+  // Store every input point, also several in one cell of the code words' grid. By default a
+  // cell keeps one point (G-PCC's merged duplicates): they decode to one position, so the
+  // paper's PSNR barely moves (≤ 0.06 dB) while coarse levels lose 20–30% of their points.
+  bool keep_duplicates = false;
   NormalOptions normals;            // how the input gets its normals (default: auto)
   std::uint64_t seed = 1;
   Progress* progress = nullptr;

@@ -277,7 +277,7 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
     RigidTransform world_from_codeword;
     world_from_codeword.rotation = canonical_frame(cloud.positions, cloud.normals, idx).world_from_canonical.rotation;
     world_from_codeword.translation = c;
-    model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword});
+    model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword, true});
     model.codebook.push_back(make_codeword(cloud, idx, world_from_codeword));
   }
   if (!added.empty()) {
@@ -414,7 +414,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       Speculation& sp = speculation[b];
       const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
       model.codebook.push_back(std::move(sp.codeword));
-      model.patches[rep] = {cw_index, sp.world_from_codeword};
+      model.patches[rep] = {cw_index, sp.world_from_codeword, true};
       if (attempts[rep] < kMaxAttempts) ++retired;
       assigned[rep] = cw_index;
       ++done;
@@ -435,7 +435,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
         const std::uint32_t k = sp.candidates[c];
         if (attempts[k] < kMaxAttempts) ++retired;  // else it retired when it ran out of attempts
         assigned[k] = cw_index;
-        model.patches[k] = {cw_index, sp.matches[c].world_from_codeword};
+        model.patches[k] = {cw_index, sp.matches[c].world_from_codeword, false};
         ++accepted;
         ++done;
       }

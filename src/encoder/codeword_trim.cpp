@@ -1,5 +1,6 @@
 #include "encoder/codeword_trim.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -35,7 +36,112 @@ DecodedPoints decode_positions(const CodeWord& w, float step, int bits) {
   return d;
 }
 
+// A copy of `model` with everything but the code book.
+EncodedModel without_codebook(const EncodedModel& model) {
+  EncodedModel out;
+  out.patch_radius = model.patch_radius;
+  out.coverage_radius = model.coverage_radius;
+  out.spacing = model.spacing;
+  out.source_points = model.source_points;
+  out.has_normals = model.has_normals;
+  out.has_colors = model.has_colors;
+  out.bounds = model.bounds;
+  out.metadata = model.metadata;
+  out.patches = model.patches;
+  return out;
+}
+
+CodeWord merge_cells(const CodeWord& w, float step, int bits) {
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> cells;
+  cells.reserve(w.points.size());
+  for (std::uint32_t i = 0; i < w.points.size(); ++i) {
+    const Vec3f& p = w.points[i];
+    const std::uint64_t x = quantize_coordinate(p.x(), step, bits), y = quantize_coordinate(p.y(), step, bits),
+                        z = quantize_coordinate(p.z(), step, bits);
+    cells.emplace_back(x << 32 | y << 16 | z, i);
+  }
+  // By cell, then by index: each run starts with the cell's first point; the output keeps the
+  // code word's order of first points.
+  std::sort(cells.begin(), cells.end());
+  std::vector<std::pair<std::uint32_t, std::pair<std::size_t, std::size_t>>> runs;  // first, [begin, end)
+  for (std::size_t b = 0; b < cells.size();) {
+    std::size_t e = b + 1;
+    while (e < cells.size() && cells[e].first == cells[b].first) ++e;
+    runs.push_back({cells[b].second, {b, e}});
+    b = e;
+  }
+  std::sort(runs.begin(), runs.end());
+  CodeWord out;
+  for (const auto& [first, range] : runs) {
+    out.points.push_back(w.points[first]);
+    if (!w.normals.empty()) {
+      Vec3f sum = Vec3f::Zero();
+      for (std::size_t k = range.first; k < range.second; ++k) sum += w.normals[cells[k].second];
+      out.normals.push_back(sum.norm() > 1e-6f ? Vec3f(sum.normalized()) : w.normals[first]);
+    }
+    if (!w.colors.empty()) {
+      std::array<std::uint32_t, 3> sum{0, 0, 0};
+      for (std::size_t k = range.first; k < range.second; ++k) {
+        const Rgb8& c = w.colors[cells[k].second];
+        sum[0] += c.r;
+        sum[1] += c.g;
+        sum[2] += c.b;
+      }
+      const auto n = static_cast<std::uint32_t>(range.second - range.first);
+      const auto mean = [n](std::uint32_t s) { return static_cast<std::uint8_t>((s + n / 2) / n); };
+      out.colors.push_back(Rgb8{mean(sum[0]), mean(sum[1]), mean(sum[2])});
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+EncodedModel express_in_decoded_frames(const EncodedModel& model, const ContainerHeader& h) {
+  EncodedModel out = model;
+  constexpr auto kNone = static_cast<std::size_t>(-1);
+  std::vector<std::size_t> representative(model.codebook.size(), kNone);
+  for (std::size_t k = 0; k < model.patches.size(); ++k) {
+    const PatchInstance& p = model.patches[k];
+    if (p.representative && representative[p.codeword] == kNone) representative[p.codeword] = k;
+  }
+  // codeword_new_from_old per code word: decoded⁻¹ ∘ exact.
+  std::vector<RigidTransform> moved(model.codebook.size());
+  parallel_for(0, model.codebook.size(), 64, [&](std::size_t c) {
+    if (representative[c] == kNone) return;
+    const RigidTransform& exact = model.patches[representative[c]].world_from_codeword;
+    RigidTransform decoded;
+    decoded.rotation = decode_rotation(encode_rotation(exact.rotation, h.rotation_bits), h.rotation_bits);
+    std::array<std::int32_t, 3> grid{};
+    // Off the grid the writer refuses the patch block later; leave the code word as it is.
+    if (!quantize_translation(exact.translation, h.bounds_min, h.translation_step, grid)) return;
+    decoded.translation = dequantize_translation(grid, h.bounds_min, h.translation_step);
+    moved[c] = decoded.inverse() * exact;
+    CodeWord& w = out.codebook[c];
+    for (Vec3f& q : w.points) q = moved[c].apply(q);
+    for (Vec3f& n : w.normals) n = moved[c].apply_vector(n);
+  });
+  for (PatchInstance& p : out.patches) {
+    p.world_from_codeword = p.world_from_codeword * moved[p.codeword].inverse();
+  }
+  return out;
+}
+
+EncodedModel merge_duplicate_cells(const EncodedModel& model, const ContainerHeader& h, TrimStats* stats) {
+  EncodedModel out = without_codebook(model);
+  out.codebook.resize(model.codebook.size());
+  const float step = position_step(h.patch_radius, h.position_bits);
+  parallel_for(0, model.codebook.size(), 16,
+               [&](std::size_t c) { out.codebook[c] = merge_cells(model.codebook[c], step, h.position_bits); });
+  if (stats != nullptr) {
+    stats->points_before = stats->points_after = 0;
+    for (std::size_t c = 0; c < model.codebook.size(); ++c) {
+      stats->points_before += model.codebook[c].points.size();
+      stats->points_after += out.codebook[c].points.size();
+    }
+  }
+  return out;
+}
 
 EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& h,
                                    TrimStats* stats) {
@@ -90,15 +196,7 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
     }
   });
 
-  EncodedModel out;
-  out.patch_radius = model.patch_radius;
-  out.coverage_radius = model.coverage_radius;
-  out.spacing = model.spacing;
-  out.source_points = model.source_points;
-  out.has_normals = model.has_normals;
-  out.has_colors = model.has_colors;
-  out.bounds = model.bounds;
-  out.patches = model.patches;
+  EncodedModel out = without_codebook(model);
   out.codebook.resize(model.codebook.size());
   std::uint64_t before = 0, after = 0;
   for (std::size_t c = 0; c < model.codebook.size(); ++c) {

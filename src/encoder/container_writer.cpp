@@ -103,6 +103,9 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
         "quantisation bits out of range (positions 4–16, normals 4–16, "
         "rotations 4–20)");
   }
+  if (o.format_version < 2 || o.format_version > kFormatVersion) {
+    return invalid_argument("the writer writes format versions 2 and 3, not " + std::to_string(o.format_version));
+  }
   if (o.patches_per_block == 0 || o.codewords_per_block == 0) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
   }
@@ -201,10 +204,13 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   SSPC_RETURN_IF_ERROR(validate(source, options));
 
   ContainerHeader h;
+  h.version = static_cast<std::uint16_t>(options.format_version);
   const bool metadata = source.metadata.present();
+  const bool duplicates_flag = options.keep_duplicates && h.version >= 3;
   h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
                                        (source.has_colors ? kFlagColors : 0) |
-                                       (metadata ? kFlagMetadata : 0));
+                                       (metadata ? kFlagMetadata : 0) |
+                                       (duplicates_flag ? kFlagDuplicates : 0));
   h.patch_radius = source.patch_radius;
   h.coverage_radius = source.coverage_radius;
   h.spacing = source.spacing;
@@ -223,13 +229,16 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   h.patch_count = static_cast<std::uint32_t>(source.patches.size());
   h.codewords_per_block = options.codewords_per_block;
   h.patches_per_block = options.patches_per_block;
-  EncodedModel trimmed;
+  const EncodedModel framed = express_in_decoded_frames(source, h);
+  EncodedModel merged, trimmed;
+  if (!options.keep_duplicates) merged = merge_duplicate_cells(framed, h);
+  const EncodedModel& unique = options.keep_duplicates ? framed : merged;
   if (options.trim_unclaimed) {
     TrimStats trim;
-    trimmed = trim_unclaimed_points(source, h, &trim);
+    trimmed = trim_unclaimed_points(unique, h, &trim);
     if (stats != nullptr) stats->untrimmed_codeword_points = trim.points_before;
   }
-  const EncodedModel& model = options.trim_unclaimed ? trimmed : source;
+  const EncodedModel& model = options.trim_unclaimed ? trimmed : unique;
   for (const CodeWord& w : model.codebook) h.codeword_point_count += w.points.size();
 
   // Code-book blocks.

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <string>
 
+#include "format/container_format.hpp"
 #include "format/encoded_model.hpp"
 #include "sspc/status.hpp"
 
@@ -28,6 +29,12 @@ struct QuantOptions {
   // Drop the code-word points no instance's region claims (encoder/codeword_trim.hpp): the
   // default decode is unchanged, the overlap decode no longer sees whole spheres.
   bool trim_unclaimed = false;
+  // Store every point of a code word, also several in one grid cell (header flag bit 3);
+  // otherwise a cell keeps one (merge_duplicate_cells in encoder/codeword_trim.hpp).
+  bool keep_duplicates = false;
+  // The format version to write: 3, or 2 (whose code words store duplicates as they are), for
+  // comparisons and the golden files.
+  int format_version = kFormatVersion;
 };
 
 // Bytes per part of the written file.

@@ -85,6 +85,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
                             : codec::position_bits_for_step(build_stats.patch_radius,
                                                             static_cast<double>(build.level.position_step) * build_stats.spacing);
   quant.trim_unclaimed = !options.full_spheres;
+  quant.keep_duplicates = options.keep_duplicates;
   // The transforms' grids follow the code words' grid: a rotation error at the patch radius
   // below half its step (the worst case measured in QuantizeTest is about 3.7·R / 2^bits, so
   // two bits more than the positions), and translations on half its step.

@@ -13,15 +13,18 @@ namespace sspc::codec {
 // "\x8A S P C \r \n \x1A \n": high bit set (7-bit transfers), CR LF and LF (line-ending
 // conversion either way), Ctrl-Z (stops an MS-DOS `type`). See FORMAT.md.
 inline constexpr std::array<std::uint8_t, 8> kMagic = {0x8A, 'S', 'P', 'C', 0x0D, 0x0A, 0x1A, 0x0A};
-// The version the writer writes, and the oldest one readers still decode. Version 2 changed only
-// the code-book blocks' position layout (FORMAT.md, "Code-book blocks").
-inline constexpr std::uint16_t kFormatVersion = 2;
+// The version the writer writes, and the oldest one readers still decode. Versions 2 and 3
+// changed only the code-book blocks' position layout (FORMAT.md, "Code-book blocks").
+inline constexpr std::uint16_t kFormatVersion = 3;
 inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;
 inline constexpr std::uint16_t kFlagColors = 1u << 1;
 inline constexpr std::uint16_t kFlagMetadata = 1u << 2;  // the metadata part follows section 4
-inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors | kFlagMetadata;
+// Version 3 and later: code words store each occupied cell's point count (sspc encode
+// --keep-duplicates); without it a cell holds one point.
+inline constexpr std::uint16_t kFlagDuplicates = 1u << 3;
+inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors | kFlagMetadata | kFlagDuplicates;
 
 inline constexpr std::size_t kHeaderSize = 196;
 inline constexpr std::size_t kHeaderCrcOffset = 192;
@@ -95,6 +98,7 @@ struct ContainerHeader {
 
   bool has_normals() const { return (flags & kFlagNormals) != 0; }
   bool has_colors() const { return (flags & kFlagColors) != 0; }
+  bool has_duplicates() const { return (flags & kFlagDuplicates) != 0; }
   bool has_metadata() const { return (flags & kFlagMetadata) != 0; }
 };
 

@@ -88,6 +88,7 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
   h.version = version;
   h.flags = le16(p + 10);
   if ((h.flags & ~kKnownFlags) != 0) return fail(10, "unknown flags " + hex32(h.flags));
+  if (h.has_duplicates() && version < 3) return fail(10, "flag bit 3 (duplicates) before version 3");
   if (le32(p + 12) != kHeaderSize) return fail(12, "header size is not 196");
   h.patch_radius = lef32(p + 16);
   h.coverage_radius = lef32(p + 20);

@@ -32,6 +32,10 @@ struct CodeWord {
 struct PatchInstance {
   std::uint32_t codeword = 0;
   RigidTransform world_from_codeword;
+  // The encoder built the code word from this patch's own points in this frame (not stored:
+  // the writer re-expresses such code words in the frame a reader decodes, see
+  // encoder/codeword_trim.hpp).
+  bool representative = false;
   Vec3f region_centre() const { return world_from_codeword.translation; }
 };
 

@@ -55,6 +55,9 @@ class RangeDecoder {
   // True when the stream was well formed (its first byte is 0, as every encoder writes it) and
   // the decoder used exactly all of its bytes.
   bool finish() const { return first_byte_ok_ && position_ == in_.size() && overrun_ == 0; }
+  // True once the decoder has read past its span: no well-formed stream does, so a caller may
+  // stop there (it bounds the work a hostile stream can ask for).
+  bool overrun() const { return overrun_ != 0; }
 
  private:
   std::uint8_t next();

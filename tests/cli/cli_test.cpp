@@ -187,13 +187,13 @@ CliRun sspc_with_small_disk(const test::TempDir& dir, const std::string& args) {
 TEST(Cli, AFullDiskLeavesTheOldOutputAndNoTemporary) {
   test::TempDir dir;
   const auto model = dir.path() / "model.sspc";
-  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model.string() + " --level 9").exit_code, 0);
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model.string() + " --level 5").exit_code, 0);
   ASSERT_GT(std::filesystem::file_size(model), 8192u);
   const auto out_dir = dir.path() / "out";
   std::filesystem::create_directory(out_dir);
   const auto out = out_dir / "old";
   const std::vector<std::string> commands = {
-      "encode " + bunny() + " " + out.string() + " --level 9 -f",
+      "encode " + bunny() + " " + out.string() + " --level 5 -f",
       "decode " + model.string() + " " + out.string() + " -f",
       "normals " + bunny() + " " + out.string() + " -f",
   };

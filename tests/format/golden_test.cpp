@@ -1,6 +1,6 @@
 // Pins the format versions. tests/data/codec/golden_vN.sspc was written by version N's writer
 // from the fixed model below and must keep decoding to the points in golden_vN_decoded.txt;
-// writing the model again must give golden_v2.sspc's bytes. Regenerate the current version's
+// writing the model again must give golden_v2.sspc's and golden_v3.sspc's bytes. Regenerate the current version's
 // pair (only when the format version changes) with SSPC_UPDATE_GOLDEN=1; older pairs are never
 // regenerated.
 #include <gtest/gtest.h>
@@ -74,14 +74,16 @@ void expect_decodes_to_committed_points(const std::string& version) {
 
 TEST(GoldenTest, Version1FileStillDecodes) { expect_decodes_to_committed_points("v1"); }
 
-TEST(GoldenTest, Version2FileIsReproducedAndDecodes) {
-  const auto sspc_path = test::data_path("codec/golden_v2.sspc");
-  const auto points_path = test::data_path("codec/golden_v2_decoded.txt");
-  auto bytes = encode_container(golden_model(), golden_options());
+// (a) Writing the model again with `options` gives the committed bytes, and (b) they decode to
+// the committed points.
+void expect_reproduced(const std::string& version, const QuantOptions& options) {
+  const auto sspc_path = test::data_path("codec/golden_" + version + ".sspc");
+  const auto points_path = test::data_path("codec/golden_" + version + "_decoded.txt");
+  auto bytes = encode_container(golden_model(), options);
   ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
   const std::string zstd_line = "# zstd " + std::to_string(ZSTD_versionNumber()) + "\n";
 
-  if (std::getenv("SSPC_UPDATE_GOLDEN") != nullptr) {
+  if (std::getenv("SSPC_UPDATE_GOLDEN") != nullptr && version == "v" + std::to_string(kFormatVersion)) {
     auto model = CompressedModel::from_bytes(*bytes);
     ASSERT_TRUE(model.ok());
     auto all = model->decode_all();
@@ -90,10 +92,10 @@ TEST(GoldenTest, Version2FileIsReproducedAndDecodes) {
     std::ofstream(points_path, std::ios::binary) << zstd_line << describe(*all);
     GTEST_SKIP() << "golden files rewritten";
   }
-  expect_decodes_to_committed_points("v2");
+  expect_decodes_to_committed_points(version);
 
-  // (a) Writing the model again gives the same bytes. zstd's output may differ between zstd
-  // releases (the format does not), so the byte comparison needs the release that wrote it.
+  // zstd's output may differ between zstd releases (the format does not), so the byte
+  // comparison needs the release that wrote it.
   const std::string golden = read_file(sspc_path);
   const std::string expected = read_file(points_path);
   const std::size_t newline = expected.find('\n');
@@ -101,7 +103,20 @@ TEST(GoldenTest, Version2FileIsReproducedAndDecodes) {
     GTEST_SKIP() << "golden file written with " << expected.substr(0, newline)
                  << ", this build has zstd " << ZSTD_versionNumber();
   }
-  EXPECT_TRUE(*bytes == golden) << "the writer no longer reproduces golden_v2.sspc";
+  EXPECT_TRUE(*bytes == golden) << "the writer no longer reproduces golden_" << version << ".sspc";
+}
+
+// Version 2 stored every point as it came; the writer still writes it on request.
+TEST(GoldenTest, Version2FileIsReproducedAndDecodes) {
+  QuantOptions options = golden_options();
+  options.format_version = 2;
+  options.keep_duplicates = true;
+  expect_reproduced("v2", options);
+}
+
+TEST(GoldenTest, Version3FileIsReproducedAndDecodes) {
+  ASSERT_EQ(kFormatVersion, 3) << "a new version needs its own golden pair";
+  expect_reproduced("v3", golden_options());
 }
 
 }  // namespace

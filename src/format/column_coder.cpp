@@ -1,0 +1,246 @@
+// The column coder (docs/FORMAT.md, "The columns"). One walk serves both directions: the encoder
+// passes the true points and gets the same decisions coded, the decoder gets them from the
+// stream; both keep the same four rows of state from which the contexts come.
+#include "format/column_coder.hpp"
+
+#include <algorithm>
+#include <bit>
+
+#include "core/check.hpp"
+
+namespace sspc::codec {
+
+namespace {
+
+using Point = std::array<std::uint32_t, 3>;
+
+// The occupancy template: (row offset, column offset) of context bit k; rows above are negative.
+constexpr std::array<std::array<int, 2>, 10> kTemplate = {{
+    {0, -1}, {0, -2}, {-1, -1}, {-1, 0}, {-1, 1}, {-2, 0}, {-1, -2}, {-1, 2}, {-2, -1}, {-2, 1},
+}};
+
+// The window of columns a lowest height is predicted from: rows −3..0, columns −3..3, those
+// coded before it.
+constexpr int kWindowRows = 3;
+constexpr int kWindowColumns = 3;
+
+// floor(a / b) for b > 0.
+std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+std::int64_t det3(std::int64_t a, std::int64_t b, std::int64_t c, std::int64_t d, std::int64_t e, std::int64_t f,
+                  std::int64_t g, std::int64_t h, std::int64_t i) {
+  return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+}
+
+// The last four rows of the rectangle: occupancy, lowest height, and whether a column holds more
+// than one point. Row r lives in slot r mod 4; columns are padded by 2 on each side.
+class Rows {
+ public:
+  explicit Rows(std::uint32_t width) : width_(width) {
+    for (auto& row : occupied_) row.assign(width + 4, 0);
+    for (auto& row : lowest_) row.assign(width, 0);
+    for (auto& row : stacked_) row.assign(width, 0);
+  }
+  void start(std::int64_t row) {
+    const std::size_t s = slot(row);
+    std::fill(occupied_[s].begin(), occupied_[s].end(), 0);
+    std::fill(stacked_[s].begin(), stacked_[s].end(), 0);
+  }
+  bool occupied(std::int64_t row, std::int64_t column) const {
+    if (row < 0 || column < -2 || column >= static_cast<std::int64_t>(width_) + 2) return false;
+    return occupied_[slot(row)][static_cast<std::size_t>(column + 2)] != 0;
+  }
+  std::uint32_t lowest(std::int64_t row, std::int64_t column) const {
+    return lowest_[slot(row)][static_cast<std::size_t>(column)];
+  }
+  bool stacked(std::int64_t row, std::int64_t column) const {
+    if (row < 0 || column < 0) return false;
+    return stacked_[slot(row)][static_cast<std::size_t>(column)] != 0;
+  }
+  void set(std::int64_t row, std::int64_t column, std::uint32_t z) {
+    occupied_[slot(row)][static_cast<std::size_t>(column + 2)] = 1;
+    lowest_[slot(row)][static_cast<std::size_t>(column)] = z;
+  }
+  void set_stacked(std::int64_t row, std::int64_t column) { stacked_[slot(row)][static_cast<std::size_t>(column)] = 1; }
+  std::int64_t width() const { return width_; }
+
+ private:
+  static std::size_t slot(std::int64_t row) { return static_cast<std::size_t>(row & 3); }
+  std::uint32_t width_;
+  std::array<std::vector<std::uint8_t>, 4> occupied_;
+  std::array<std::vector<std::uint32_t>, 4> lowest_;
+  std::array<std::vector<std::uint8_t>, 4> stacked_;
+};
+
+std::size_t occupancy_context(const Rows& rows, std::int64_t r, std::int64_t c) {
+  std::size_t ctx = 0;
+  for (std::size_t k = 0; k < kTemplate.size(); ++k) {
+    if (rows.occupied(r + kTemplate[k][0], c + kTemplate[k][1])) ctx |= std::size_t{1} << k;
+  }
+  return ctx;
+}
+
+struct Prediction {
+  std::uint32_t value = 0;
+  std::size_t context = 0;
+};
+
+// The lowest height of column (r, c) predicted from the columns behind it in the window: none,
+// the raster-previous column's; one to three, their mean; four or more, the least-squares plane
+// z = a + b·dx + c·dy through them evaluated at (0, 0), in exact integer arithmetic (the mean
+// when they are collinear). The context is the kind (0, 1, 2) × min(bit width of the heights'
+// spread, 4).
+Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits) {
+  std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
+  std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
+  for (std::int64_t dy = -kWindowRows; dy <= 0; ++dy) {
+    for (std::int64_t dx = -kWindowColumns; dx <= kWindowColumns; ++dx) {
+      if (dy == 0 && dx >= 0) break;
+      const std::int64_t cc = c + dx;
+      if (cc < 0 || cc >= rows.width() || !rows.occupied(r + dy, cc)) continue;
+      const std::uint32_t z = rows.lowest(r + dy, cc);
+      const auto zi = static_cast<std::int64_t>(z);
+      ++n;
+      sx += dx;
+      sy += dy;
+      sz += zi;
+      sxx += dx * dx;
+      sxy += dx * dy;
+      syy += dy * dy;
+      sxz += dx * zi;
+      syz += dy * zi;
+      lo = std::min(lo, z);
+      hi = std::max(hi, z);
+    }
+  }
+  if (n == 0) return {previous, 0};
+  const std::size_t spread = std::min<std::size_t>(static_cast<std::size_t>(std::bit_width(hi - lo)), 4);
+  const std::int64_t mean = floor_div(2 * sz + n, 2 * n);
+  if (n < 4) return {static_cast<std::uint32_t>(mean), 5 + spread};
+  std::int64_t det = det3(n, sx, sy, sx, sxx, sxy, sy, sxy, syy);
+  std::int64_t det_a = det3(sz, sx, sy, sxz, sxx, sxy, syz, sxy, syy);
+  if (det == 0) return {static_cast<std::uint32_t>(mean), 10 + spread};
+  if (det < 0) {
+    det = -det;
+    det_a = -det_a;
+  }
+  const std::int64_t plane = floor_div(2 * det_a + det, 2 * det);
+  const std::int64_t top = (std::int64_t{1} << bits) - 1;
+  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread};
+}
+
+struct Encoding {
+  RangeEncoder& rc;
+  unsigned bit(std::uint16_t& p, unsigned value) {
+    rc.encode(p, value);
+    return value;
+  }
+  std::uint32_t value(ValueModel& m, std::uint32_t v) {
+    m.encode(rc, v);
+    return v;
+  }
+  bool exhausted() const { return false; }
+};
+
+struct Decoding {
+  RangeDecoder& rc;
+  unsigned bit(std::uint16_t& p, unsigned /*value*/) { return rc.decode(p); }
+  std::uint32_t value(ValueModel& m, std::uint32_t /*v*/) { return m.decode(rc); }
+  bool exhausted() const { return rc.overrun(); }
+};
+
+// The walk; `truth` is empty when decoding. Returns false on a decoded value off the grid, more
+// than max_points points, or an exhausted stream.
+template <typename Io>
+bool walk_columns(Io& io, ColumnModels& m, int bits, bool duplicates, std::size_t max_points,
+                  std::span<const Point> truth, std::vector<Point>& out) {
+  const std::uint32_t size = 1u << bits;
+  const bool encoding = !truth.empty();
+  std::uint32_t x_min = size, x_max = 0;
+  for (const Point& p : truth) {
+    x_min = std::min(x_min, p[0]);
+    x_max = std::max(x_max, p[0]);
+  }
+  const std::uint32_t x0 = io.value(m.rectangle[0], x_min);
+  const std::uint32_t y0 = io.value(m.rectangle[1], encoding ? truth.front()[1] : 0);
+  const std::uint32_t width = io.value(m.rectangle[2], x_max - x_min) + 1;
+  const std::uint32_t height = io.value(m.rectangle[3], encoding ? truth.back()[1] - truth.front()[1] : 0) + 1;
+  if (x0 >= size || y0 >= size || width > size - x0 || height > size - y0) return false;
+  Rows rows(width);
+  std::size_t cursor = 0, produced = 0;
+  std::uint32_t previous = 1u << (bits - 1);
+  const std::uint32_t min_gap = duplicates ? 0 : 1;
+  for (std::int64_t r = 0; r < height; ++r) {
+    if (io.exhausted()) return false;
+    rows.start(r);
+    const std::uint32_t y = y0 + static_cast<std::uint32_t>(r);
+    for (std::int64_t c = 0; c < width; ++c) {
+      const std::uint32_t x = x0 + static_cast<std::uint32_t>(c);
+      const bool here = encoding && cursor < truth.size() && truth[cursor][1] == y && truth[cursor][0] == x;
+      if (io.bit(m.occupied[occupancy_context(rows, r, c)], here ? 1u : 0u) == 0) continue;
+      if (++produced > max_points) return false;
+      // The lowest point: its residual against the prediction.
+      const Prediction pred = predict_lowest(rows, r, c, previous, bits);
+      const std::int64_t truth_residual =
+          here ? static_cast<std::int64_t>(truth[cursor][2]) - static_cast<std::int64_t>(pred.value) : 0;
+      std::int64_t residual = 0;
+      if (io.bit(m.zero[pred.context], truth_residual == 0 ? 1u : 0u) == 0) {
+        const unsigned negative = io.bit(m.sign[pred.context], truth_residual < 0 ? 1u : 0u);
+        const auto magnitude = static_cast<std::int64_t>(io.value(
+            m.magnitude[pred.context], static_cast<std::uint32_t>((truth_residual < 0 ? -truth_residual : truth_residual) - 1))) + 1;
+        residual = negative != 0 ? -magnitude : magnitude;
+      }
+      const std::int64_t z = static_cast<std::int64_t>(pred.value) + residual;
+      if (z < 0 || z >= static_cast<std::int64_t>(size)) return false;
+      auto z_here = static_cast<std::uint32_t>(z);
+      out.push_back({x, y, z_here});
+      rows.set(r, c, z_here);
+      previous = z_here;
+      // Further points up the column.
+      const std::size_t stack_context = rows.stacked(r, c - 1) || rows.stacked(r - 1, c) ? 1 : 0;
+      std::size_t k = 1;
+      for (;; ++k) {
+        const bool more = here && cursor + k < truth.size() && truth[cursor + k][1] == y && truth[cursor + k][0] == x;
+        if (io.bit(m.another[std::min<std::size_t>(k - 1, 2) * 2 + stack_context], more ? 1u : 0u) == 0) break;
+        if (++produced > max_points) return false;
+        rows.set_stacked(r, c);
+        const std::uint32_t gap =
+            io.value(m.gap[k == 1 ? 0 : 1], more ? truth[cursor + k][2] - z_here - min_gap : 0);
+        if (z_here + min_gap + gap >= size) return false;  // each term is below 2^16
+        z_here += min_gap + gap;
+        out.push_back({x, y, z_here});
+      }
+      if (here) cursor += k;
+    }
+  }
+  SSPC_DCHECK(!encoding || cursor == truth.size());
+  return true;
+}
+
+}  // namespace
+
+ColumnModels::ColumnModels() : empty(kProbabilityHalf) {
+  occupied.fill(kProbabilityHalf);
+  zero.fill(kProbabilityHalf);
+  sign.fill(kProbabilityHalf);
+  another.fill(kProbabilityHalf);
+}
+
+void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, bool duplicates) {
+  SSPC_DCHECK(bits >= 1 && bits <= 16);
+  Encoding io{rc};
+  if (io.bit(m.empty, points.empty() ? 1u : 0u) != 0) return;
+  std::vector<Point> out;
+  out.reserve(points.size());
+  const bool walked = walk_columns(io, m, bits, duplicates, points.size(), points, out);
+  SSPC_DCHECK(walked && out.size() == points.size());
+}
+
+bool decode_columns(RangeDecoder& rc, ColumnModels& m, int bits, std::size_t max_points, bool duplicates,
+                    std::vector<Point>& out) {
+  Decoding io{rc};
+  if (io.bit(m.empty, 0) != 0) return true;
+  return walk_columns(io, m, bits, duplicates, max_points, {}, out);
+}
+
+}  // namespace sspc::codec
