@@ -26,7 +26,7 @@ fi
 cmake --build build-release -j "$jobs" --target "${release_targets[@]}"
 stage_done "release build"
 ctest --test-dir build-release --output-on-failure -j "$jobs" --timeout 600 \
-  -R '^(Cli|CliHelp|CliLas|CliReadWarnings|CliReliability|JsonKeys|Pipes|python|package)\.'
+  -R '^(Cli|CliHelp|CliLas|CliReadWarnings|CliReliability|JsonKeys|Pipes|RateRegression|python|package)\.'
 stage_done "release tests"
 
 # At -O1 with line tables only, like the TSan build below: the stack traces keep their lines and
@@ -38,7 +38,7 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSSPC_WERRO
 cmake --build build-asan -j "$jobs"
 stage_done "ASan+UBSan build"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^(package|python)\.'
+  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^(package|python|RateRegression)\.'
 stage_done "ASan+UBSan tests"
 
 # Only the test executables of the parallel stages are built (at -O1 with line tables only,

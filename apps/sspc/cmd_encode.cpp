@@ -23,6 +23,7 @@ struct EncodeCliOptions {
   float epsilon = 0;
   float tau = 0;
   int position_bits = 0;
+  float step = 0;
   NormalMode normals = NormalMode::kAuto;
   std::string viewpoint;
   bool store_normals = false;
@@ -68,6 +69,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (o.epsilon > 0) options.epsilon = o.epsilon;
   if (o.tau > 0) options.tau = o.tau;
   if (o.position_bits > 0) options.position_bits = o.position_bits;
+  if (o.step > 0) options.step = o.step;
   options.store_normals = o.store_normals;
   options.full_spheres = o.full_spheres;
   options.keep_duplicates = o.keep_duplicates;
@@ -147,6 +149,9 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
+      ->check(number_in(0, 1000, true))
+      ->type_name("0<X<=1000");
+  app->add_option("--step", o->step, "Code-word grid step in point spacings (overrides the level)")
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");
   app->add_option("--position-bits", o->position_bits,

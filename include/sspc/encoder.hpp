@@ -19,6 +19,7 @@ struct EncodeOptions {
   std::optional<float> epsilon;     // descriptor L1 radius, > 0
   std::optional<float> tau;         // MLS error threshold in point spacings, > 0
   std::optional<int> position_bits; // code-word coordinate bits, 4..16 (instead of the level's step)
+  std::optional<float> step;        // code-word grid step in point spacings, > 0 (the level's otherwise)
   // Store the code words' normals (10-bit octahedral; about 12–16 more bits per code-word
   // point after zstd). Off by default: the rate a point-cloud codec is compared by counts
   // positions only, and decoders and the renderer can estimate normals from the points.

@@ -90,7 +90,7 @@ StatusOr<std::string> read_bytes(const std::filesystem::path& path) {
 
 py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
                         int level, std::optional<int> patch_points, std::optional<float> epsilon,
-                        std::optional<float> tau, std::optional<int> position_bits, bool store_normals,
+                        std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
                         bool full_spheres, bool keep_duplicates, const std::string& normals, const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
   PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
@@ -100,6 +100,7 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   options.patch_points = patch_points;
   options.epsilon = epsilon;
   options.tau = tau;
+  options.step = step;
   options.position_bits = position_bits;
   options.store_normals = store_normals;
   options.full_spheres = full_spheres;
@@ -298,7 +299,7 @@ being the patch's region centre. Raises IndexError out of range.)doc")
 void bind_codec(py::module_& m) {
   m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), py::arg("level") = 5,
         py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(), py::arg("tau") = py::none(),
-        py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
+        py::arg("step") = py::none(), py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
         py::arg("keep_duplicates") = false, py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
         py::arg("progress") = py::none(), R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
@@ -309,7 +310,8 @@ dict (level, points, patches, codewords, bits_per_point, file_bytes, ..., second
 file's bytes come back instead (encoded through a temporary file, then read into one bytes object).
 
 The keyword arguments mirror `sspc encode --help`: level 0 (most detail) .. 9 (smallest);
-patch_points (8..4096), epsilon, tau, position_bits (4..16) override single fields of the level;
+patch_points (8..4096), epsilon, tau, step (grid step in spacings), position_bits (4..16) override
+single fields of the level;
 store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
 keep_duplicates stores every point, also several in one cell of the code words' grid;
 normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint

@@ -12,7 +12,9 @@ from conftest import rows
 
 def test_encode_to_a_file_returns_the_cli_statistics(bumps, tmp_path):
     path = tmp_path / "bumps.sspc"
-    stats = sspc.encode(bumps, path, level=5)
+    # The paper's regime: small patches and τ of one spacing (the default levels instance a
+    # patch only within half their grid step).
+    stats = sspc.encode(bumps, path, level=5, patch_points=256, tau=1.0)
     for key in ("level", "points", "patches", "codewords", "bits_per_point", "file_bytes", "covered", "seconds"):
         assert key in stats
     assert stats["points"] == len(bumps)

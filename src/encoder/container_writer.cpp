@@ -112,6 +112,9 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
   if (o.zstd_level < ZSTD_minCLevel() || o.zstd_level > ZSTD_maxCLevel()) {
     return invalid_argument("zstd_level out of range");
   }
+  if (!(o.position_step >= 0) || !std::isfinite(o.position_step)) {
+    return invalid_argument("position_step must be finite and non-negative");
+  }
   if (!(o.translation_step >= 0) || !std::isfinite(o.translation_step)) {
     return invalid_argument("translation_step must be finite and non-negative");
   }
@@ -223,6 +226,12 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
                        : source.spacing > 0          ? source.spacing / 64.0f
                                                     : source.patch_radius / 256.0f;
   h.position_bits = options.position_bits;
+  if (options.position_step > 0) {
+    const double cells = 2.0 * static_cast<double>(source.patch_radius) / static_cast<double>(options.position_step);
+    h.position_bits = std::clamp(static_cast<int>(std::ceil(std::log2(cells))), kMinPositionBits, kMaxPositionBits);
+    h.patch_radius = std::max(source.patch_radius,
+                              options.position_step * static_cast<float>(1u << (h.position_bits - 1)));
+  }
   h.normal_bits = options.normal_bits;
   h.rotation_bits = options.rotation_bits;
   h.codeword_count = static_cast<std::uint32_t>(source.codebook.size());

@@ -20,6 +20,10 @@ namespace sspc::codec {
 // are what they are.
 struct QuantOptions {
   int position_bits = 12;      // code-word coordinates; step = 2·patch_radius / 2^bits
+  // When positive, the code words' grid step instead: the writer takes the fewest position bits
+  // whose grid spans the code words and stores a patch_radius enlarged to step·2^(bits−1), so
+  // that the step is exactly this one (a power-of-two grid would move it by up to √2).
+  float position_step = 0;
   int normal_bits = 10;        // per octahedral component
   int rotation_bits = 13;      // per smallest-three component: error < the position step
   float translation_step = 0;  // 0: spacing / 64 (patch_radius / 256 when spacing is 0)

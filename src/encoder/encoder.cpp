@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 
 #include "encoder/container_writer.hpp"
@@ -32,6 +33,9 @@ Status check_options(const EncodeOptions& o) {
   }
   if (o.tau && !(*o.tau > 0 && *o.tau <= 1e3f)) {
     return invalid_argument("tau must be in (0, 1000] spacings, got " + std::to_string(*o.tau));
+  }
+  if (o.step && !(*o.step > 0 && *o.step <= 1e3f)) {
+    return invalid_argument("step must be in (0, 1000] spacings, got " + std::to_string(*o.step));
   }
   if (o.position_bits && (*o.position_bits < 4 || *o.position_bits > 16)) {
     return invalid_argument("position bits must be 4..16, got " + std::to_string(*o.position_bits));
@@ -65,6 +69,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   if (options.patch_points) build.level.patch_points = *options.patch_points;
   if (options.epsilon) build.level.epsilon = *options.epsilon;
   if (options.tau) build.level.tau = *options.tau;
+  if (options.step) build.level.position_step = *options.step;
   build.seed = options.seed;
   build.progress = options.progress;
   codec::BuildStats build_stats;
@@ -80,16 +85,24 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
 
   start = std::chrono::steady_clock::now();
   codec::QuantOptions quant;
-  quant.position_bits = options.position_bits
-                            ? *options.position_bits
-                            : codec::position_bits_for_step(build_stats.patch_radius,
-                                                            static_cast<double>(build.level.position_step) * build_stats.spacing);
+  // The level's step in spacings, exactly (the writer sizes the grid to it), unless the bits are
+  // given.
+  const auto radius = static_cast<float>(build_stats.patch_radius);
+  float step = 0;
+  if (options.position_bits) {
+    quant.position_bits = *options.position_bits;
+    step = codec::position_step(radius, quant.position_bits);
+  } else {
+    step = static_cast<float>(static_cast<double>(build.level.position_step) * build_stats.spacing);
+    quant.position_step = step;
+    quant.position_bits = std::clamp(static_cast<int>(std::ceil(std::log2(2.0 * static_cast<double>(radius) / static_cast<double>(step)))),
+                                     codec::kMinPositionBits, codec::kMaxPositionBits);
+  }
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;
   // The transforms' grids follow the code words' grid: a rotation error at the patch radius
   // below half its step (the worst case measured in QuantizeTest is about 3.7·R / 2^bits, so
   // two bits more than the positions), and translations on half its step.
-  const float step = codec::position_step(static_cast<float>(build_stats.patch_radius), quant.position_bits);
   quant.rotation_bits = std::clamp(quant.position_bits + 2, codec::kMinRotationBits, codec::kMaxRotationBits);
   // The translation grid must span the model in |v| < 2^24 steps.
   const float extent = (cloud.bounding_box().max() - cloud.bounding_box().min()).maxCoeff();

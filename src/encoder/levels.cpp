@@ -7,26 +7,29 @@ namespace sspc::codec {
 namespace {
 
 // One row per level: patch size, descriptor radius ε, match threshold τ, code-word grid step.
-// Measured on dragon_scans (scripts/rd_codec.sh, docs/RESULTS.md), what moves the rate is:
-// - the grid step: a point costs about 3 bits more per halving, and the PSNR gains 3–5 dB
-//   while the step is above a quarter of the spacing (below that, sampling noise dominates);
-// - the patch size: each patch costs about 55 bits of transform, so 256-point patches spend
-//   0.9 bpp where 64-point ones spend 3.1, with the same PSNR at the same step;
-// - τ, the RMS nearest-point distance a replaced patch may have: τ = 1 spacing replaces 20–25%
-//   of the patches on scans (a 15–20% smaller file for 1–4 dB), τ = 1.6 about half, at the cost
-//   of the decoded density, which the 10% point-count rule bounds.
-// Level 5, the default, is the one that reaches 65 dB on dragon_scans.
+// Measured with format version 3 on bunny, igea and dragon_scans against G-PCC's curves
+// (scripts/rd_codec.sh, docs/RESULTS.md; the sweep behind this table is in FORMAT_NOTES.md,
+// "Level table"):
+// - the grid step sets the PSNR: one point per occupied cell scores an RMS of half a step, so
+//   each halving gains 6 dB and costs 1.5–2.5 bits a point;
+// - larger patches cost fewer transforms and fewer code-word borders: at the same step,
+//   4096-point patches took igea from 3.66 (1024) and 5.08 (256) to about 3.2 bits a point at
+//   62 dB, and the PSNR does not move;
+// - an instanced patch is off by about τ spacings RMS, its own code word by half a step, so a
+//   match is accepted when it is no worse than the patch's own coding would be: τ = step / 2.
+//   At the paper's τ of 1–2 spacings, instancing lost 0.3–1.6 dB for 5–10% of the bits at
+//   steps below 1.4 spacings (above the resampling ceiling, SPEC "What limits the rate").
 constexpr std::array<LevelParams, 10> kLevels = {{
-    {64, 0.50f, 0.40f, 0.10f},
-    {96, 0.50f, 0.50f, 0.20f},
-    {128, 0.60f, 0.60f, 0.30f},
-    {192, 0.60f, 0.60f, 0.45f},
-    {256, 0.70f, 0.80f, 0.60f},
-    {256, 0.70f, 1.00f, 0.80f},
-    {256, 0.80f, 1.20f, 1.10f},
-    {256, 0.90f, 1.40f, 1.40f},
-    {384, 1.00f, 1.60f, 1.60f},
-    {512, 1.20f, 2.00f, 2.00f},
+    {4096, 0.50f, 0.04f, 0.08f},
+    {4096, 0.50f, 0.07f, 0.14f},
+    {4096, 0.60f, 0.12f, 0.25f},
+    {4096, 0.60f, 0.20f, 0.40f},
+    {4096, 0.70f, 0.30f, 0.60f},
+    {4096, 0.70f, 0.42f, 0.85f},
+    {4096, 0.80f, 0.60f, 1.20f},
+    {4096, 0.90f, 0.85f, 1.70f},
+    {4096, 1.00f, 1.25f, 2.50f},
+    {4096, 1.20f, 1.80f, 3.60f},
 }};
 
 }  // namespace

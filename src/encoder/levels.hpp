@@ -11,8 +11,7 @@ struct LevelParams {
   int patch_points = 0;        // expected points in one patch sphere
   float epsilon = 0;           // L1 radius in descriptor space (match distance)
   float tau = 0;               // MLS RMS error threshold, in units of the point spacing
-  float position_step = 0;     // code-word coordinates' grid, in point spacings (an upper
-                               // bound: the grid spans ±patch radius in 2^bits steps)
+  float position_step = 0;     // code-word coordinates' grid step, in point spacings
 };
 
 inline constexpr int kMinLevel = 0;

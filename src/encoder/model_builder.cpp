@@ -51,7 +51,9 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
     if (mean <= 0) break;
     radius *= std::sqrt(static_cast<double>(patch_points) / mean);
   }
-  return static_cast<float>(radius);
+  // A cloud of fewer points than a patch would grow the radius without bound (every sphere
+  // already holds all of it); no patch needs to be wider than the cloud.
+  return static_cast<float>(std::min(radius, static_cast<double>(bounding_box_diagonal(cloud))));
 }
 
 StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {

@@ -82,8 +82,14 @@ std::size_t occupancy_context(const Rows& rows, std::int64_t r, std::int64_t c) 
 
 struct Prediction {
   std::uint32_t value = 0;
-  std::size_t context = 0;
+  std::size_t context = 0;   // kind × 5 + spread
+  std::size_t fraction = 1;  // where the unrounded prediction fell in [value − ½, value + ½), in quarters
+  std::size_t slope = 0;     // the plane's |gradient| in cells a cell: < ½, < 1, < 2, more
 };
+
+// The quarter of [q − ½, q + ½) that the unrounded prediction num / den fell in, given
+// t = num + den/2·... : t = (2·num + den) − 2·den·q ∈ [0, 2·den).
+std::size_t quarter(std::int64_t t, std::int64_t den) { return static_cast<std::size_t>((2 * t) / den); }
 
 // The lowest height of column (r, c) predicted from the columns behind it in the window: none,
 // the raster-previous column's; one to three, their mean; four or more, the least-squares plane
@@ -113,20 +119,27 @@ Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std:
       hi = std::max(hi, z);
     }
   }
-  if (n == 0) return {previous, 0};
+  if (n == 0) return {previous, 0, 1, 0};
   const std::size_t spread = std::min<std::size_t>(static_cast<std::size_t>(std::bit_width(hi - lo)), 4);
   const std::int64_t mean = floor_div(2 * sz + n, 2 * n);
-  if (n < 4) return {static_cast<std::uint32_t>(mean), 5 + spread};
+  const Prediction by_mean{static_cast<std::uint32_t>(mean), (n < 4 ? 5 : 10) + spread,
+                           quarter(2 * sz + n - 2 * n * mean, n), std::min<std::size_t>(spread, 3)};
+  if (n < 4) return by_mean;
   std::int64_t det = det3(n, sx, sy, sx, sxx, sxy, sy, sxy, syy);
   std::int64_t det_a = det3(sz, sx, sy, sxz, sxx, sxy, syz, sxy, syy);
-  if (det == 0) return {static_cast<std::uint32_t>(mean), 10 + spread};
+  if (det == 0) return by_mean;
+  const std::int64_t det_e = det3(n, sz, sy, sx, sxz, sxy, sy, syz, syy);
+  const std::int64_t det_f = det3(n, sx, sz, sx, sxx, sxz, sy, sxy, syz);
   if (det < 0) {
     det = -det;
     det_a = -det_a;
   }
   const std::int64_t plane = floor_div(2 * det_a + det, 2 * det);
   const std::int64_t top = (std::int64_t{1} << bits) - 1;
-  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread};
+  const std::int64_t gradient = (det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f);
+  const std::size_t slope = 2 * gradient < det ? 0 : gradient < det ? 1 : gradient < 2 * det ? 2 : 3;
+  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread,
+          quarter(2 * det_a + det - 2 * det * plane, det), slope};
 }
 
 struct Encoding {
@@ -184,8 +197,9 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, bool duplicates, std::size_
       const std::int64_t truth_residual =
           here ? static_cast<std::int64_t>(truth[cursor][2]) - static_cast<std::int64_t>(pred.value) : 0;
       std::int64_t residual = 0;
-      if (io.bit(m.zero[pred.context], truth_residual == 0 ? 1u : 0u) == 0) {
-        const unsigned negative = io.bit(m.sign[pred.context], truth_residual < 0 ? 1u : 0u);
+      const std::size_t near = pred.context * 4 + pred.fraction;
+      if (io.bit(m.zero[near], truth_residual == 0 ? 1u : 0u) == 0) {
+        const unsigned negative = io.bit(m.sign[near], truth_residual < 0 ? 1u : 0u);
         const auto magnitude = static_cast<std::int64_t>(io.value(
             m.magnitude[pred.context], static_cast<std::uint32_t>((truth_residual < 0 ? -truth_residual : truth_residual) - 1))) + 1;
         residual = negative != 0 ? -magnitude : magnitude;
@@ -201,7 +215,8 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, bool duplicates, std::size_
       std::size_t k = 1;
       for (;; ++k) {
         const bool more = here && cursor + k < truth.size() && truth[cursor + k][1] == y && truth[cursor + k][0] == x;
-        if (io.bit(m.another[std::min<std::size_t>(k - 1, 2) * 2 + stack_context], more ? 1u : 0u) == 0) break;
+        const std::size_t ctx = (std::min<std::size_t>(k - 1, 2) * 2 + stack_context) * 4 + pred.slope;
+        if (io.bit(m.another[ctx], more ? 1u : 0u) == 0) break;
         if (++produced > max_points) return false;
         rows.set_stacked(r, c);
         const std::uint32_t gap =

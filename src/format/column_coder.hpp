@@ -35,10 +35,10 @@ struct ColumnModels {
   std::uint16_t empty;
   std::array<ValueModel, 4> rectangle;  // x0, y0, width − 1, height − 1
   std::array<std::uint16_t, kOccupancyContexts> occupied;
-  std::array<std::uint16_t, kHeightContexts> zero;  // the lowest height's residual is 0
-  std::array<std::uint16_t, kHeightContexts> sign;  // ... and is negative
-  std::array<ValueModel, kHeightContexts> magnitude;  // |residual| − 1
-  std::array<std::uint16_t, 6> another;  // one more point in the column
+  std::array<std::uint16_t, 4 * kHeightContexts> zero;  // the lowest height's residual is 0
+  std::array<std::uint16_t, 4 * kHeightContexts> sign;  // ... and is negative
+  std::array<ValueModel, kHeightContexts> magnitude;     // |residual| − 1
+  std::array<std::uint16_t, 24> another;                 // one more point in the column
   std::array<ValueModel, 2> gap;         // to the next point up the column
 };
 

@@ -51,9 +51,12 @@ BuildOptions options_for_level(int level) {
 TEST(ModelBuilder, SelfSimilarBumpsShareFewCodeWords) {
   const PointCloud cloud = tiled_bumps(36, 25);
   BuildStats stats;
-  // Level 0: 64-point patches, whose copies lie within ICP's reach (the larger patches of the
-  // higher levels find fewer of them: ratio 3.8 at level 1).
-  auto built = build_model(cloud, options_for_level(0), &stats);
+  // The paper's regime: 64-point patches, whose copies lie within ICP's reach, and τ = 0.4
+  // spacings (the default levels accept a match only within half their grid step, see
+  // encoder/levels.cpp, and use far larger patches).
+  BuildOptions options;
+  options.level = {64, 0.5f, 0.4f, 0.1f};
+  auto built = build_model(cloud, options, &stats);
   ASSERT_TRUE(built.ok()) << built.status().to_string();
   const EncodedModel& model = *built;
   ASSERT_GT(model.codebook.size(), 0u);

@@ -1,0 +1,61 @@
+// The rate regression (issue: rate–distortion, item 7): the bundled bunny at levels 1, 5 and 9
+// must keep its bits per point and its PSNR (the paper's, as `sspc eval` computes it), so that a
+// later change to the codec cannot lose them silently. The pinned values are what this version
+// measures; a change that improves them should pin the new values (the test prints them).
+//
+// It runs with the CLI's tests in the release build (scripts/test.sh): an encode of the bunny
+// takes about a second there and ten under the sanitizers, which add nothing to a rate test.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "sspc/compressed_model.hpp"
+#include "sspc/encoder.hpp"
+#include "sspc/io.hpp"
+#include "sspc/metrics.hpp"
+#include "test_util.hpp"
+
+namespace sspc {
+namespace {
+
+struct Pinned {
+  int level;
+  double bits_per_point;  // at most this (+0.5%)
+  double psnr;            // at least this (−0.05 dB)
+};
+
+// Measured by this test on data/bunny.ply (34 834 points).
+constexpr Pinned kPinned[] = {
+    {1, 14.0943, 70.014},
+    {5, 3.5538, 55.105},
+    {9, 0.5636, 42.606},
+};
+
+TEST(RateRegression, BunnyKeepsItsRateAndPsnrAtLevels1_5_9) {
+  const std::filesystem::path source = std::filesystem::path(SSPC_SOURCE_DIR) / "data" / "bunny.ply";
+  auto cloud = read_point_cloud(source);
+  ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
+  test::TempDir dir;
+  for (const Pinned& pin : kPinned) {
+    SCOPED_TRACE("level " + std::to_string(pin.level));
+    EncodeOptions options;
+    options.level = pin.level;
+    const auto path = dir.path() / ("bunny." + std::to_string(pin.level) + ".sspc");
+    auto stats = encode(*cloud, path, options);
+    ASSERT_TRUE(stats.ok()) << stats.status().to_string();
+    auto model = CompressedModel::open(path);
+    ASSERT_TRUE(model.ok()) << model.status().to_string();
+    auto decoded = model->decode_all();
+    ASSERT_TRUE(decoded.ok()) << decoded.status().to_string();
+    auto report = evaluate(*cloud, *decoded);
+    ASSERT_TRUE(report.ok()) << report.status().to_string();
+    std::printf("level %d: %.4f bits per point, %.3f dB\n", pin.level, stats->bits_per_point,
+                report->psnr_paper);
+    EXPECT_LE(stats->bits_per_point, pin.bits_per_point * 1.005);
+    EXPECT_GE(report->psnr_paper, pin.psnr - 0.05);
+  }
+}
+
+}  // namespace
+}  // namespace sspc
