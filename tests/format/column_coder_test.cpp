@@ -1,0 +1,150 @@
+// The columns of version 3's code words (docs/FORMAT.md, "The columns"): exact round trips of
+// surfaces, overlapping layers, repeated points and empty code words, several code words sharing
+// one block's models; a smooth surface costs what the least-squares prediction promises; and a
+// hostile stream is refused without running away.
+#include "format/column_coder.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace sspc::codec {
+namespace {
+
+using Point = std::array<std::uint32_t, 3>;
+using Points = std::vector<Point>;
+
+std::span<const std::byte> stream_bytes(const std::string& s) {
+  return std::as_bytes(std::span<const char>(s.data(), s.size()));
+}
+
+void sort_raster(Points& p, bool unique) {
+  std::sort(p.begin(), p.end(), [](const Point& a, const Point& b) {
+    return std::tie(a[1], a[0], a[2]) < std::tie(b[1], b[0], b[2]);
+  });
+  if (unique) p.erase(std::unique(p.begin(), p.end()), p.end());
+}
+
+// A tilted, curved height field on a 2^bits grid, with holes and a second layer above part of
+// it (an overlapping scan).
+Points surface(int bits, std::uint32_t seed, bool second_layer) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  const std::uint32_t size = 1u << bits;
+  Points p;
+  for (std::uint32_t y = 2; y + 3 < size; ++y) {
+    for (std::uint32_t x = 1; x + 2 < size; ++x) {
+      if (u(rng) < 0.3) continue;
+      const double h = 0.5 * size + 0.3 * (x - size / 2.0) + 0.01 * (y - 8.0) * (y - 8.0) + u(rng);
+      const auto z = static_cast<std::uint32_t>(std::clamp(h, 0.0, size - 1.0));
+      p.push_back({x, y, z});
+      if (second_layer && x > size / 2 && z + 3 < size) p.push_back({x, y, z + 3});
+    }
+  }
+  sort_raster(p, true);
+  return p;
+}
+
+std::string encode_all(const std::vector<Points>& words, int bits, bool duplicates) {
+  std::string out;
+  RangeEncoder rc(out);
+  ColumnModels m;
+  for (const Points& w : words) encode_columns(rc, m, w, bits, duplicates);
+  rc.finish();
+  return out;
+}
+
+// Decodes `words` code words; false when one fails or the stream is not exactly used.
+bool decode_all(const std::string& stream, std::size_t words, int bits, bool duplicates, std::size_t max_points,
+                std::vector<Points>& out) {
+  RangeDecoder rc(stream_bytes(stream));
+  ColumnModels m;
+  out.clear();
+  Points all;
+  for (std::size_t i = 0; i < words; ++i) {
+    const std::size_t before = all.size();
+    if (!decode_columns(rc, m, bits, max_points, duplicates, all)) return false;
+    out.emplace_back(all.begin() + static_cast<std::ptrdiff_t>(before), all.end());
+  }
+  return rc.finish();
+}
+
+TEST(ColumnCoder, RoundTripsSurfacesLayersAndEmptyCodeWords) {
+  for (const int bits : {4, 6, 9}) {
+    SCOPED_TRACE(bits);
+    const std::vector<Points> words = {surface(bits, 1, false), {}, surface(bits, 2, true),
+                                       Points{{0, 0, 0}}, Points{{(1u << bits) - 1, (1u << bits) - 1, (1u << bits) - 1}}};
+    const std::string stream = encode_all(words, bits, false);
+    std::vector<Points> back;
+    ASSERT_TRUE(decode_all(stream, words.size(), bits, false, 1u << 20, back));
+    EXPECT_EQ(back, words);
+  }
+}
+
+TEST(ColumnCoder, RepeatedPointsNeedTheDuplicatesFlag) {
+  Points w = surface(5, 3, true);
+  const Points copy = w;
+  w.insert(w.end(), copy.begin(), copy.begin() + 40);  // 40 points twice
+  w.push_back(copy[7]);                                  // one three times
+  sort_raster(w, false);
+  const std::string stream = encode_all({w}, 5, true);
+  std::vector<Points> back;
+  ASSERT_TRUE(decode_all(stream, 1, 5, true, 1u << 20, back));
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0], w);
+}
+
+// The heights of a plane are what the least-squares prediction makes free: a tilted plane costs
+// little more than its occupancy, which for a full rectangle is nearly nothing.
+TEST(ColumnCoder, APlaneCostsUnderHalfABitAPoint) {
+  Points plane;
+  for (std::uint32_t y = 0; y < 64; ++y) {
+    for (std::uint32_t x = 0; x < 64; ++x) plane.push_back({x, y, 100 + (x + 2 * y) / 3});
+  }
+  const std::string stream = encode_all({plane}, 8, false);
+  EXPECT_LT(8.0 * static_cast<double>(stream.size()) / static_cast<double>(plane.size()), 0.5);
+}
+
+TEST(ColumnCoder, TooManyPointsAreRefused) {
+  const Points w = surface(6, 4, false);
+  const std::string stream = encode_all({w}, 6, false);
+  std::vector<Points> back;
+  EXPECT_FALSE(decode_all(stream, 1, 6, false, w.size() - 1, back));
+  EXPECT_TRUE(decode_all(stream, 1, 6, false, w.size(), back));
+}
+
+// Random bytes, cut streams and a stream read with the wrong grid: refused or decoded, always
+// on the grid and within the point budget, never running away.
+TEST(ColumnCoder, HostileStreamsStayBounded) {
+  std::mt19937 rng(7);
+  const std::string good = encode_all({surface(6, 5, true), surface(6, 6, false)}, 6, false);
+  std::vector<std::string> streams;
+  for (std::size_t cut = 1; cut < good.size(); cut += 7) streams.push_back(good.substr(0, cut));
+  for (int i = 0; i < 200; ++i) {
+    std::string s(1 + rng() % 300, '\0');
+    for (std::size_t k = 1; k < s.size(); ++k) s[k] = static_cast<char>(rng());
+    streams.push_back(s);
+  }
+  for (const std::string& s : streams) {
+    for (const int bits : {4, 6, 16}) {
+      RangeDecoder rc(stream_bytes(s));
+      ColumnModels m;
+      Points out;
+      const std::size_t budget = 1024 * s.size();
+      for (int word = 0; word < 3; ++word) {
+        if (!decode_columns(rc, m, bits, budget - std::min(budget, out.size()), word == 1, out)) break;
+      }
+      EXPECT_LE(out.size(), budget);
+      for (const Point& p : out) {
+        for (const std::uint32_t v : p) ASSERT_LT(v, 1u << bits);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sspc::codec
