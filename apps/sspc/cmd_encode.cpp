@@ -143,8 +143,8 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->type_name("0..9")
       ->capture_default_str();
   app->add_option("--patch-points", o->patch_points, "Expected points per patch (overrides the level)")
-      ->check(CLI::Range(8, 4096).description(""))
-      ->type_name("8..4096");
+      ->check(CLI::Range(8, 65536).description(""))
+      ->type_name("8..65536");
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");

@@ -15,7 +15,7 @@ namespace sspc {
 struct EncodeOptions {
   int level = 5;  // 0 (most detail) .. 9 (smallest); one row of docs/FORMAT.md's level table
   // Expert overrides of single fields of the level's row.
-  std::optional<int> patch_points;  // expected points per patch, 8..4096
+  std::optional<int> patch_points;  // expected points per patch, 8..65536
   std::optional<float> epsilon;     // descriptor L1 radius, > 0
   std::optional<float> tau;         // MLS error threshold in point spacings, > 0
   std::optional<int> position_bits; // code-word coordinate bits, 4..16 (instead of the level's step)

@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include "core/byte_reader.hpp"
 #include "core/check.hpp"
@@ -241,64 +242,46 @@ struct AttributeWriter {
   }
 };
 
-// Version 3's models of one block: a mode per code word, then the columns' or the walk's.
-struct BlockModelsV3 {
-  std::uint16_t walk = kProbabilityHalf;  // the code word is coded by the walk
-  ColumnModels columns;
-  PositionModels positions;
-  std::array<ValueModel, 2> count;  // a walked code word's point count: low 16 bits, the rest
-};
-
-// The columns code every cell of the code word's rectangle, so they pay off only where the grid
-// is not much finer than the points: on bunny at level 0 (a step of 0.1 spacings, under 1% of
-// the cells occupied) they cost 3× the walk, at a step of 0.7 spacings (half the cells) 0.7×.
-// The encoder walks a code word whose points fill less than 1/16 of its rectangle.
-bool walk_is_cheaper(std::span<const std::array<std::uint32_t, 3>> sorted) {
-  if (sorted.empty()) return false;
-  std::uint32_t x_min = sorted.front()[0], x_max = x_min;
-  for (const auto& p : sorted) {
-    x_min = std::min(x_min, p[0]);
-    x_max = std::max(x_max, p[0]);
-  }
-  const std::uint64_t area = std::uint64_t{x_max - x_min + 1} * (sorted.back()[1] - sorted.front()[1] + 1);
-  return 16 * sorted.size() < area;
-}
-
-// Version 3: each code word's points in (y, x, z) order, by the columns (format/column_coder.hpp)
-// or by version 2's walk. Without the duplicates flag a grid point keeps its first point's
-// attributes (the writer has merged them already, encoder/codeword_trim.hpp).
+// Version 3: each code word's points by the columns (format/column_coder.hpp), in their order.
+// Without the duplicates flag a grid point keeps its first point's attributes (the writer has
+// merged them already, encoder/codeword_trim.hpp).
 std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const ContainerHeader& header) {
   const float step = position_step(header.patch_radius, header.position_bits);
   const int bits = header.position_bits;
   std::string stream;
   RangeEncoder rc(stream);
-  Encoding io{rc};
-  BlockModelsV3 models;
+  ColumnModels models;
   AttributeWriter attributes{header, {}, {}};
   std::vector<std::array<std::uint32_t, 3>> grid, sorted;
+  std::vector<std::uint32_t> order, kept;
   for (const CodeWord& c : codewords) {
     grid.clear();
     for (const Vec3f& p : c.points) {
       grid.push_back({quantize_coordinate(p.x(), step, bits), quantize_coordinate(p.y(), step, bits),
                       quantize_coordinate(p.z(), step, bits)});
     }
+    kept.clear();
     sorted.clear();
     for (const std::uint32_t i : raster_order(grid)) {
       if (!header.has_duplicates() && !sorted.empty() && sorted.back() == grid[i]) continue;
       sorted.push_back(grid[i]);
-      attributes.add(c, i);
+      kept.push_back(i);
     }
-    const bool walk = walk_is_cheaper(sorted);
-    rc.encode(models.walk, walk ? 1u : 0u);
-    if (walk) {
-      const auto n = static_cast<std::uint32_t>(sorted.size());
-      io.code(models.count[0], n & 0xFFFFu);
-      io.code(models.count[1], n >> 16);
-      const bool walked = walk_codeword(io, models.positions, sorted, bits);
-      SSPC_DCHECK(walked);
-    } else {
-      encode_columns(rc, models.columns, sorted, bits, header.has_duplicates());
+    const int shift = column_shift(sorted, bits);
+    // The columns' order, carrying each point's index for its attributes.
+    order.resize(kept.size());
+    for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      const auto& p = sorted[a];
+      const auto& q = sorted[b];
+      return std::tuple(p[1] >> shift, p[0] >> shift) < std::tuple(q[1] >> shift, q[0] >> shift);
+    });
+    std::vector<std::array<std::uint32_t, 3>> coded(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      coded[k] = sorted[order[k]];
+      attributes.add(c, kept[order[k]]);
     }
+    encode_columns(rc, models, coded, bits, shift, header.has_duplicates());
   }
   rc.finish();
   std::string out;
@@ -452,25 +435,13 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     if (!v1::decode_positions(pos_bytes, pbits, grid)) overflow = 1;
   } else if (version3) {
     RangeDecoder rc(pos_bytes);
-    Decoding io{rc};
-    BlockModelsV3 models;
+    ColumnModels models;
     std::vector<std::array<std::uint32_t, 3>> points;
     points.reserve(n);
     for (std::uint32_t c = 0; c < entry.count; ++c) {
-      const std::string what = "code word " + std::to_string(entry.first + c) + ": ";
-      if (rc.decode(models.walk) != 0) {
-        const std::uint32_t low = io.code(models.count[0], 0);
-        const std::uint64_t count = std::uint64_t{io.code(models.count[1], 0)} << 16 | low;
-        if (count > n - points.size()) {
-          return payload_error(0, what + "more points than the seek table's " + std::to_string(n));
-        }
-        const std::size_t first = points.size();
-        points.resize(first + count);
-        if (!walk_codeword(io, models.positions, std::span(points).subspan(first), pbits)) {
-          return payload_error(0, what + "a position value exceeds position_bits");
-        }
-      } else if (!decode_columns(rc, models.columns, pbits, n - points.size(), header.has_duplicates(), points)) {
-        return payload_error(0, what + "positions off the grid, more points than the seek table's " +
+      if (!decode_columns(rc, models, pbits, n - points.size(), header.has_duplicates(), points)) {
+        return payload_error(0, "code word " + std::to_string(entry.first + c) +
+                                    ": positions off the grid, more points than the seek table's " +
                                     std::to_string(n) + ", or the stream ends early");
       }
       out.offsets.push_back(static_cast<std::uint32_t>(points.size()));

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
+#include <tuple>
 
 #include "core/check.hpp"
 
@@ -152,6 +154,10 @@ struct Encoding {
     m.encode(rc, v);
     return v;
   }
+  std::uint32_t direct(std::uint32_t v, int n) {
+    rc.encode_direct(v, n);
+    return v;
+  }
   bool exhausted() const { return false; }
 };
 
@@ -159,71 +165,102 @@ struct Decoding {
   RangeDecoder& rc;
   unsigned bit(std::uint16_t& p, unsigned /*value*/) { return rc.decode(p); }
   std::uint32_t value(ValueModel& m, std::uint32_t /*v*/) { return m.decode(rc); }
+  std::uint32_t direct(std::uint32_t /*v*/, int n) { return rc.decode_direct(n); }
   bool exhausted() const { return rc.overrun(); }
 };
 
-// The walk; `truth` is empty when decoding. Returns false on a decoded value off the grid, more
-// than max_points points, or an exhausted stream.
+// Codes a signed residual with the zero / sign / magnitude models of one context.
 template <typename Io>
-bool walk_columns(Io& io, ColumnModels& m, int bits, bool duplicates, std::size_t max_points,
+std::int64_t code_residual(Io& io, std::uint16_t& zero, std::uint16_t& sign, ValueModel& magnitude,
+                           std::int64_t truth) {
+  if (io.bit(zero, truth == 0 ? 1u : 0u) != 0) return 0;
+  const unsigned negative = io.bit(sign, truth < 0 ? 1u : 0u);
+  const auto m = static_cast<std::int64_t>(
+                     io.value(magnitude, static_cast<std::uint32_t>((truth < 0 ? -truth : truth) - 1))) +
+                 1;
+  return negative != 0 ? -m : m;
+}
+
+// The walk; `truth` is empty when decoding, and otherwise in cell order for `shift`. Returns false
+// on a decoded value off the grid, more than max_points points, or an exhausted stream.
+template <typename Io>
+bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates, std::size_t max_points,
                   std::span<const Point> truth, std::vector<Point>& out) {
   const std::uint32_t size = 1u << bits;
+  const std::uint32_t cells = size >> shift;  // per axis
+  const std::uint32_t mask = (1u << shift) - 1;
   const bool encoding = !truth.empty();
-  std::uint32_t x_min = size, x_max = 0;
+  std::uint32_t x_min = cells, x_max = 0;
   for (const Point& p : truth) {
-    x_min = std::min(x_min, p[0]);
-    x_max = std::max(x_max, p[0]);
+    x_min = std::min(x_min, p[0] >> shift);
+    x_max = std::max(x_max, p[0] >> shift);
   }
   const std::uint32_t x0 = io.value(m.rectangle[0], x_min);
-  const std::uint32_t y0 = io.value(m.rectangle[1], encoding ? truth.front()[1] : 0);
+  const std::uint32_t y0 = io.value(m.rectangle[1], encoding ? truth.front()[1] >> shift : 0);
   const std::uint32_t width = io.value(m.rectangle[2], x_max - x_min) + 1;
-  const std::uint32_t height = io.value(m.rectangle[3], encoding ? truth.back()[1] - truth.front()[1] : 0) + 1;
-  if (x0 >= size || y0 >= size || width > size - x0 || height > size - y0) return false;
+  const std::uint32_t height =
+      io.value(m.rectangle[3], encoding ? (truth.back()[1] >> shift) - (truth.front()[1] >> shift) : 0) + 1;
+  if (x0 >= cells || y0 >= cells || width > cells - x0 || height > cells - y0) return false;
   Rows rows(width);
   std::size_t cursor = 0, produced = 0;
   std::uint32_t previous = 1u << (bits - 1);
   const std::uint32_t min_gap = duplicates ? 0 : 1;
+  const auto in_cell = [&](std::size_t i, std::uint32_t cx, std::uint32_t cy) {
+    return encoding && i < truth.size() && truth[i][1] >> shift == cy && truth[i][0] >> shift == cx;
+  };
   for (std::int64_t r = 0; r < height; ++r) {
     if (io.exhausted()) return false;
     rows.start(r);
-    const std::uint32_t y = y0 + static_cast<std::uint32_t>(r);
+    const std::uint32_t cy = y0 + static_cast<std::uint32_t>(r);
     for (std::int64_t c = 0; c < width; ++c) {
-      const std::uint32_t x = x0 + static_cast<std::uint32_t>(c);
-      const bool here = encoding && cursor < truth.size() && truth[cursor][1] == y && truth[cursor][0] == x;
+      const std::uint32_t cx = x0 + static_cast<std::uint32_t>(c);
+      const bool here = in_cell(cursor, cx, cy);
       if (io.bit(m.occupied[occupancy_context(rows, r, c)], here ? 1u : 0u) == 0) continue;
       if (++produced > max_points) return false;
-      // The lowest point: its residual against the prediction.
-      const Prediction pred = predict_lowest(rows, r, c, previous, bits);
-      const std::int64_t truth_residual =
-          here ? static_cast<std::int64_t>(truth[cursor][2]) - static_cast<std::int64_t>(pred.value) : 0;
-      std::int64_t residual = 0;
-      const std::size_t near = pred.context * 4 + pred.fraction;
-      if (io.bit(m.zero[near], truth_residual == 0 ? 1u : 0u) == 0) {
-        const unsigned negative = io.bit(m.sign[near], truth_residual < 0 ? 1u : 0u);
-        const auto magnitude = static_cast<std::int64_t>(io.value(
-            m.magnitude[pred.context], static_cast<std::uint32_t>((truth_residual < 0 ? -truth_residual : truth_residual) - 1))) + 1;
-        residual = negative != 0 ? -magnitude : magnitude;
+      // The first point: where in the cell (shift > 0), and its height against the prediction.
+      std::uint32_t ox = 0, oy = 0;
+      if (shift > 0) {
+        ox = io.direct(here ? truth[cursor][0] & mask : 0, shift);
+        oy = io.direct(here ? truth[cursor][1] & mask : 0, shift);
       }
-      const std::int64_t z = static_cast<std::int64_t>(pred.value) + residual;
+      const Prediction pred = predict_lowest(rows, r, c, previous, bits);
+      const std::size_t near = pred.context * 4 + pred.fraction;
+      const std::int64_t z = static_cast<std::int64_t>(pred.value) +
+                             code_residual(io, m.zero[near], m.sign[near], m.magnitude[pred.context],
+                                           here ? static_cast<std::int64_t>(truth[cursor][2]) -
+                                                      static_cast<std::int64_t>(pred.value)
+                                                : 0);
       if (z < 0 || z >= static_cast<std::int64_t>(size)) return false;
       auto z_here = static_cast<std::uint32_t>(z);
-      out.push_back({x, y, z_here});
+      out.push_back({cx << shift | ox, cy << shift | oy, z_here});
       rows.set(r, c, z_here);
       previous = z_here;
-      // Further points up the column.
+      // Further points of the cell: up the column (shift 0), or anywhere in it.
       const std::size_t stack_context = rows.stacked(r, c - 1) || rows.stacked(r - 1, c) ? 1 : 0;
       std::size_t k = 1;
       for (;; ++k) {
-        const bool more = here && cursor + k < truth.size() && truth[cursor + k][1] == y && truth[cursor + k][0] == x;
+        const bool more = in_cell(cursor + k, cx, cy);
         const std::size_t ctx = (std::min<std::size_t>(k - 1, 2) * 2 + stack_context) * 4 + pred.slope;
         if (io.bit(m.another[ctx], more ? 1u : 0u) == 0) break;
         if (++produced > max_points) return false;
         rows.set_stacked(r, c);
-        const std::uint32_t gap =
-            io.value(m.gap[k == 1 ? 0 : 1], more ? truth[cursor + k][2] - z_here - min_gap : 0);
-        if (z_here + min_gap + gap >= size) return false;  // each term is below 2^16
-        z_here += min_gap + gap;
-        out.push_back({x, y, z_here});
+        const Point* t = more ? &truth[cursor + k] : nullptr;
+        if (shift == 0) {
+          const std::uint32_t gap = io.value(m.gap[k == 1 ? 0 : 1], t != nullptr ? (*t)[2] - z_here - min_gap : 0);
+          if (z_here + min_gap + gap >= size) return false;  // each term is below 2^16
+          z_here += min_gap + gap;
+          out.push_back({cx, cy, z_here});
+          continue;
+        }
+        ox = io.direct(t != nullptr ? (*t)[0] & mask : 0, shift);
+        oy = io.direct(t != nullptr ? (*t)[1] & mask : 0, shift);
+        const std::int64_t zz =
+            static_cast<std::int64_t>(z_here) +
+            code_residual(io, m.other_zero, m.other_sign, m.other_magnitude,
+                          t != nullptr ? static_cast<std::int64_t>((*t)[2]) - static_cast<std::int64_t>(z_here) : 0);
+        if (zz < 0 || zz >= static_cast<std::int64_t>(size)) return false;
+        z_here = static_cast<std::uint32_t>(zz);
+        out.push_back({cx << shift | ox, cy << shift | oy, z_here});
       }
       if (here) cursor += k;
     }
@@ -234,20 +271,45 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, bool duplicates, std::size_
 
 }  // namespace
 
-ColumnModels::ColumnModels() : empty(kProbabilityHalf) {
+ColumnModels::ColumnModels() : empty(kProbabilityHalf), other_zero(kProbabilityHalf), other_sign(kProbabilityHalf) {
   occupied.fill(kProbabilityHalf);
   zero.fill(kProbabilityHalf);
   sign.fill(kProbabilityHalf);
   another.fill(kProbabilityHalf);
 }
 
-void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, bool duplicates) {
-  SSPC_DCHECK(bits >= 1 && bits <= 16);
+int column_shift(std::span<const Point> points, int bits) {
+  if (points.empty()) return 0;
+  std::uint32_t x_min = points.front()[0], x_max = x_min, y_min = points.front()[1], y_max = y_min;
+  for (const Point& p : points) {
+    x_min = std::min(x_min, p[0]);
+    x_max = std::max(x_max, p[0]);
+    y_min = std::min(y_min, p[1]);
+    y_max = std::max(y_max, p[1]);
+  }
+  const double per_point = static_cast<double>(x_max - x_min + 1) * static_cast<double>(y_max - y_min + 1) /
+                           static_cast<double>(points.size());
+  int shift = 0;
+  while (shift + 1 < bits && shift < kMaxColumnShift && 2 * std::ldexp(1.0, 2 * (shift + 1)) <= per_point) ++shift;
+  return shift;
+}
+
+void sort_for_columns(std::span<Point> points, int shift) {
+  std::stable_sort(points.begin(), points.end(), [shift](const Point& a, const Point& b) {
+    return std::tuple(a[1] >> shift, a[0] >> shift, a[1], a[0], a[2]) <
+           std::tuple(b[1] >> shift, b[0] >> shift, b[1], b[0], b[2]);
+  });
+}
+
+void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, int shift,
+                    bool duplicates) {
+  SSPC_DCHECK(bits >= 1 && bits <= 16 && shift >= 0 && shift < bits && shift <= kMaxColumnShift);
   Encoding io{rc};
   if (io.bit(m.empty, points.empty() ? 1u : 0u) != 0) return;
+  io.value(m.shift, static_cast<std::uint32_t>(shift));
   std::vector<Point> out;
   out.reserve(points.size());
-  const bool walked = walk_columns(io, m, bits, duplicates, points.size(), points, out);
+  const bool walked = walk_columns(io, m, bits, shift, duplicates, points.size(), points, out);
   SSPC_DCHECK(walked && out.size() == points.size());
 }
 
@@ -255,7 +317,9 @@ bool decode_columns(RangeDecoder& rc, ColumnModels& m, int bits, std::size_t max
                     std::vector<Point>& out) {
   Decoding io{rc};
   if (io.bit(m.empty, 0) != 0) return true;
-  return walk_columns(io, m, bits, duplicates, max_points, {}, out);
+  const std::uint32_t shift = io.value(m.shift, 0);
+  if (shift >= static_cast<std::uint32_t>(bits) || shift > kMaxColumnShift) return false;
+  return walk_columns(io, m, bits, static_cast<int>(shift), duplicates, max_points, {}, out);
 }
 
 }  // namespace sspc::codec

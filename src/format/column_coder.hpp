@@ -38,17 +38,33 @@ struct ColumnModels {
   std::array<std::uint16_t, 4 * kHeightContexts> zero;  // the lowest height's residual is 0
   std::array<std::uint16_t, 4 * kHeightContexts> sign;  // ... and is negative
   std::array<ValueModel, kHeightContexts> magnitude;     // |residual| − 1
-  std::array<std::uint16_t, 24> another;                 // one more point in the column
+  std::array<std::uint16_t, 24> another;                 // one more point in the cell
+  ValueModel shift;                                      // the code word's cell shift
+  std::uint16_t other_zero, other_sign;                  // a further point's height in a cell
+  ValueModel other_magnitude;                            // of shift > 0, against the previous
   std::array<ValueModel, 2> gap;         // to the next point up the column
 };
 
-// Codes one code word's grid points (each coordinate below 2^bits, 1 ≤ bits ≤ 16), which must
-// be sorted by (y, x, z) and, unless `duplicates`, distinct.
-void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const std::array<std::uint32_t, 3>> points,
-                    int bits, bool duplicates);
+// Sparse code words are coded on cells of 2^shift × 2^shift grid columns, each point's place in
+// its cell as 2·shift direct bits: a raster over every grid column would spend a decision on
+// each of the many empty ones (at level 0 on bunny, under 1% of them are occupied). The writer
+// takes the largest shift (up to kMaxColumnShift) whose cells are no larger than the rectangle's
+// area per point.
+inline constexpr int kMaxColumnShift = 6;
+int column_shift(std::span<const std::array<std::uint32_t, 3>> points, int bits);
 
-// Decodes one code word's points, sorted by (y, x, z), appending them to `out`. Fails (false)
-// on a value off the grid, on more than `max_points` points, or when the stream runs out.
+// The order the columns code and decode a code word's points in: by cell (y >> shift, then
+// x >> shift), then by y, x, z.
+void sort_for_columns(std::span<std::array<std::uint32_t, 3>> points, int shift);
+
+// Codes one code word's grid points (each coordinate below 2^bits, 1 ≤ bits ≤ 16), which must
+// be in sort_for_columns order for `shift` (0 ≤ shift < bits, shift ≤ kMaxColumnShift) and,
+// unless `duplicates`, distinct.
+void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const std::array<std::uint32_t, 3>> points,
+                    int bits, int shift, bool duplicates);
+
+// Decodes one code word's points, in sort_for_columns order, appending them to `out`. Fails
+// (false) on a value off the grid, on more than `max_points` points, or when the stream runs out.
 bool decode_columns(RangeDecoder& rc, ColumnModels& m, int bits, std::size_t max_points, bool duplicates,
                     std::vector<std::array<std::uint32_t, 3>>& out);
 

@@ -49,11 +49,31 @@ Points surface(int bits, std::uint32_t seed, bool second_layer) {
   return p;
 }
 
+// 300 points scattered over a 2^bits grid on a gentle slope: sparse enough for cells of several
+// grid columns (a positive shift), with two points in one column.
+Points scattered(int bits, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  const std::uint32_t size = 1u << bits;
+  const auto next = [&rng](std::uint32_t below) { return static_cast<std::uint32_t>(rng() % below); };
+  Points p;
+  for (int i = 0; i < 300; ++i) {
+    const std::uint32_t x = next(size), y = next(size);
+    p.push_back({x, y, (x + y) / 4 + next(3)});
+  }
+  p.push_back({p[0][0], p[0][1], p[0][2] + 5 < size ? p[0][2] + 5 : 0});
+  sort_raster(p, true);
+  return p;
+}
+
 std::string encode_all(const std::vector<Points>& words, int bits, bool duplicates) {
   std::string out;
   RangeEncoder rc(out);
   ColumnModels m;
-  for (const Points& w : words) encode_columns(rc, m, w, bits, duplicates);
+  for (const Points& w : words) {
+    Points sorted = w;
+    sort_for_columns(sorted, column_shift(w, bits));
+    encode_columns(rc, m, sorted, bits, column_shift(w, bits), duplicates);
+  }
   rc.finish();
   return out;
 }
@@ -76,12 +96,20 @@ bool decode_all(const std::string& stream, std::size_t words, int bits, bool dup
 TEST(ColumnCoder, RoundTripsSurfacesLayersAndEmptyCodeWords) {
   for (const int bits : {4, 6, 9}) {
     SCOPED_TRACE(bits);
-    const std::vector<Points> words = {surface(bits, 1, false), {}, surface(bits, 2, true),
+    const std::vector<Points> words = {surface(bits, 1, false), {}, surface(bits, 2, true), scattered(bits, 3),
                                        Points{{0, 0, 0}}, Points{{(1u << bits) - 1, (1u << bits) - 1, (1u << bits) - 1}}};
+    if (bits >= 6) {
+      EXPECT_GT(column_shift(words[3], bits), 0);
+    }
     const std::string stream = encode_all(words, bits, false);
     std::vector<Points> back;
     ASSERT_TRUE(decode_all(stream, words.size(), bits, false, 1u << 20, back));
-    EXPECT_EQ(back, words);
+    ASSERT_EQ(back.size(), words.size());
+    for (std::size_t i = 0; i < words.size(); ++i) {
+      Points expected = words[i];
+      sort_for_columns(expected, column_shift(words[i], bits));
+      EXPECT_EQ(back[i], expected) << "code word " << i;
+    }
   }
 }
 
@@ -95,7 +123,9 @@ TEST(ColumnCoder, RepeatedPointsNeedTheDuplicatesFlag) {
   std::vector<Points> back;
   ASSERT_TRUE(decode_all(stream, 1, 5, true, 1u << 20, back));
   ASSERT_EQ(back.size(), 1u);
-  EXPECT_EQ(back[0], w);
+  Points expected = w;
+  sort_for_columns(expected, column_shift(w, 5));
+  EXPECT_EQ(back[0], expected);
 }
 
 // The heights of a plane are what the least-squares prediction makes free: a tilted plane costs
