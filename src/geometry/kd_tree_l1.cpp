@@ -52,7 +52,7 @@ struct L1Metric {
   }
 };
 
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<L1Metric, RowsAdaptor, -1, std::uint32_t>;
+using L1Tree = nanoflann::KDTreeSingleIndexAdaptor<L1Metric, RowsAdaptor, -1, std::uint32_t>;
 
 // Collects items with distance ≤ radius; searches a slightly larger ball because nanoflann's
 // cell bounds, summed in another order, can round a few ulps above the exact distance.
@@ -81,7 +81,7 @@ class L1RadiusResultSet {
 
 struct KdTreeL1::Impl {
   RowsAdaptor adaptor;
-  Tree tree;
+  L1Tree tree;
   Impl(const float* data, std::size_t dimension, std::size_t rows, std::size_t leaf_size)
       : adaptor{data, dimension, rows},
         tree(static_cast<int>(dimension), adaptor,

@@ -18,6 +18,7 @@
 #include <tuple>
 #include <utility>
 
+#include "core/stopwatch.hpp"
 #include "render/brick_scene.hpp"
 #include "render/shading.hpp"
 #include "sspc/neighbors.hpp"
@@ -28,14 +29,10 @@ namespace sspc {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // Points per brick the grid aims at. A brick decodes the points within its margin too (the
 // support radius, plus the neighbourhood of PCA normals when the model has none), about 1.5
 // times its own at this size; larger bricks cost more memory per brick for fewer duplicates.
-constexpr double kPointsPerBrick = 32768;
+constexpr double kPointsPerDecodedBrick = 32768;
 // The k of the PCA normals a decoded cloud gets (NormalOptions' default, as `sspc render`
 // estimates them), and how far their neighbourhoods reach, in point spacings: the 16 nearest
 // neighbours on a surface sampled at one spacing lie within about 2.3 spacings.
@@ -168,12 +165,12 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   progress_end(progress);
   bounds_ = info.bounds;
 
-  // Bricks of about kPointsPerBrick points on a surface (points per brick grow with its area),
-  // at least 8 support radii across.
+  // Bricks of about kPointsPerDecodedBrick points on a surface (points per brick grow with its
+  // area), at least 8 support radii across.
   const Vec3f extent = info.bounds.max() - info.bounds.min();
   const float area = std::max({extent.x() * extent.y(), extent.y() * extent.z(), extent.x() * extent.z(), 1e-30f});
   const double points = std::max<double>(1.0, static_cast<double>(info.source_points));
-  const float edge = std::max(8 * r_, std::sqrt(area * static_cast<float>(kPointsPerBrick / points)));
+  const float edge = std::max(8 * r_, std::sqrt(area * static_cast<float>(kPointsPerDecodedBrick / points)));
   SSPC_RETURN_IF_ERROR(layout(reach_box, edge, budget));
 
   // A brick holds surface when some patch's points can reach it.

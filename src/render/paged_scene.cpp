@@ -29,7 +29,7 @@ namespace {
 
 // Points per brick the grid aims at: large enough that the halo (points within r of a brick,
 // stored twice) is a small share, small enough that a budget holds many bricks.
-constexpr double kPointsPerBrick = 8192;
+constexpr double kPointsPerPagedBrick = 8192;
 
 class PagedScene final : public render::BrickScene {
  public:
@@ -65,13 +65,13 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
   h_ = static_cast<float>(static_cast<double>(bandwidth) * spacing);
   const float r = render::MlsSurface(std::span<const Vec3f>(), std::span<const Vec3f>(), h_).support_radius();
 
-  // A brick edge that gives about kPointsPerBrick points a brick on a surface (points per brick
-  // grow with its area), at least 8 support radii.
+  // A brick edge that gives about kPointsPerPagedBrick points a brick on a surface (points per
+  // brick grow with its area), at least 8 support radii.
   const Box3f bounds = cloud.bounding_box();
   const Vec3f extent = bounds.max() - bounds.min();
   const float area = std::max({extent.x() * extent.y(), extent.y() * extent.z(), extent.x() * extent.z(), 1e-30f});
   const float edge =
-      std::max(8 * r, std::sqrt(area * static_cast<float>(kPointsPerBrick / static_cast<double>(cloud.size()))));
+      std::max(8 * r, std::sqrt(area * static_cast<float>(kPointsPerPagedBrick / static_cast<double>(cloud.size()))));
   SSPC_RETURN_IF_ERROR(layout(bounds, edge, budget));
   bricks_.assign(brick_count(), Brick{});
 

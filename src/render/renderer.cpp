@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/parallel.hpp"
+#include "core/stopwatch.hpp"
 #include "render/camera.hpp"
 #include "render/mls_surface.hpp"
 #include "render/shading.hpp"
@@ -14,14 +15,6 @@
 #include "sspc/render.hpp"
 
 namespace sspc {
-
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 Camera frame_bounds(const Box3f& bounds, float fov_degrees) {
   Camera c;

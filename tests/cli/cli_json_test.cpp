@@ -84,28 +84,29 @@ class JsonKeys : public ::testing::Test {
 
 TEST_F(JsonKeys, EverySubcommandWritesTheDocumentedKeys) {
   test::TempDir dir;
+  const std::string cloud = small_bunny(dir);
   const std::string d = dir.path().string() + "/";
   ASSERT_GE(docs_.size(), 10u) << "sections parsed from docs/CLI.md";
 
-  check("info", sspc(dir, "info --json " + bunny()));
-  check("convert", sspc(dir, "convert --json " + bunny() + " " + d + "bunny.las"));
+  check("info", sspc(dir, "info --json " + cloud));
+  check("convert", sspc(dir, "convert --json " + cloud + " " + d + "bunny.las"));
   check("info", sspc(dir, "info --json " + d + "bunny.las"));
-  check("normals", sspc(dir, "normals --json " + bunny() + " " + d + "n.ply --normals estimate"));
-  check("encode", sspc(dir, "encode --json " + bunny() + " " + d + "m.sspc --level 9"));
+  check("normals", sspc(dir, "normals --json " + cloud + " " + d + "n.ply --normals estimate"));
+  check("encode", sspc(dir, "encode --json " + cloud + " " + d + "m.sspc --level 9"));
   check("info (.sspc)", sspc(dir, "info --json " + d + "m.sspc"));
   check("verify", sspc(dir, "verify --json " + d + "m.sspc"));
   check("decode", sspc(dir, "decode --json " + d + "m.sspc " + d + "dec.ply"));
   check("eval",
-        sspc(dir, "eval --json " + bunny() + " " + d + "dec.ply --compressed " + d + "m.sspc"));
-  check("eval", sspc(dir, "eval --json " + bunny() + " " + d + "n.ply"));
-  check("render", sspc(dir, "render --json " + bunny() + " -o " + d +
+        sspc(dir, "eval --json " + cloud + " " + d + "dec.ply --compressed " + d + "m.sspc"));
+  check("eval", sspc(dir, "eval --json " + cloud + " " + d + "n.ply"));
+  check("render", sspc(dir, "render --json " + cloud + " -o " + d +
                                 "a.png --size 32x32 --memory-budget 64"));
   check("render", sspc(dir, "render --json " + d + "m.sspc -o " + d +
                                 "b.png --size 32x32 --compare " + d + "a.png"));
   check("render",
-        sspc(dir, "render --json " + bunny() + " -o " + d + "f.png --size 16x16 --orbit 2"));
+        sspc(dir, "render --json " + cloud + " -o " + d + "f.png --size 16x16 --orbit 2"));
   check("error", sspc(dir, "info --json " + d + "absent.ply"), 1);
-  check("error", sspc(dir, "encode --json --level 12 " + bunny() + " " + d + "x.sspc"), 2);
+  check("error", sspc(dir, "encode --json --level 12 " + cloud + " " + d + "x.sspc"), 2);
 
   for (const auto& [section, doc] : docs_) {
     ASSERT_TRUE(seen_.count(section)) << "no run checks docs/CLI.md's section " << section;

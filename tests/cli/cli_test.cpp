@@ -153,7 +153,7 @@ TEST(Cli, EncodeDecodeRoundTrip) {
 TEST(Cli, EncodeRefusesToOverwriteItsInputOrAnExistingOutput) {
   test::TempDir dir;
   const auto input = dir.path() / "in.ply";
-  std::filesystem::copy_file(bunny(), input);
+  std::filesystem::copy_file(small_bunny(dir), input);
   const std::string original = slurp(input);
   const auto link = dir.path() / "link.ply";
   std::filesystem::create_hard_link(input, link);
