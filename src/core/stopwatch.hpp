@@ -1,4 +1,4 @@
-// Elapsed wall time, for the seconds the renderer's statistics report.
+// Elapsed wall time, for the seconds the encoder's and the renderer's statistics report.
 #pragma once
 
 #include <chrono>

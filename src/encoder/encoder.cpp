@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/stopwatch.hpp"
 #include "encoder/container_writer.hpp"
 #include "encoder/levels.hpp"
 #include "encoder/model_builder.hpp"
@@ -17,9 +18,6 @@ namespace sspc {
 
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 Status check_options(const EncodeOptions& o) {
   if (o.level < codec::kMinLevel || o.level > codec::kMaxLevel) {

@@ -6,17 +6,10 @@
 #include <numbers>
 
 #include "core/parallel.hpp"
+#include "core/stopwatch.hpp"
 #include "sspc/neighbors.hpp"
 
 namespace sspc::codec {
-
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 void number_codewords_by_first_use(EncodedModel& model) {
   constexpr std::uint32_t kUnused = 0xFFFFFFFFu;

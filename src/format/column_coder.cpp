@@ -144,7 +144,7 @@ Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std:
           quarter(2 * det_a + det - 2 * det * plane, det), slope};
 }
 
-struct Encoding {
+struct ColumnEncoding {
   RangeEncoder& rc;
   unsigned bit(std::uint16_t& p, unsigned value) {
     rc.encode(p, value);
@@ -161,7 +161,7 @@ struct Encoding {
   bool exhausted() const { return false; }
 };
 
-struct Decoding {
+struct ColumnDecoding {
   RangeDecoder& rc;
   unsigned bit(std::uint16_t& p, unsigned /*value*/) { return rc.decode(p); }
   std::uint32_t value(ValueModel& m, std::uint32_t /*v*/) { return m.decode(rc); }
@@ -304,7 +304,7 @@ void sort_for_columns(std::span<Point> points, int shift) {
 void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, int shift,
                     bool duplicates) {
   SSPC_DCHECK(bits >= 1 && bits <= 16 && shift >= 0 && shift < bits && shift <= kMaxColumnShift);
-  Encoding io{rc};
+  ColumnEncoding io{rc};
   if (io.bit(m.empty, points.empty() ? 1u : 0u) != 0) return;
   io.value(m.shift, static_cast<std::uint32_t>(shift));
   std::vector<Point> out;
@@ -315,7 +315,7 @@ void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> po
 
 bool decode_columns(RangeDecoder& rc, ColumnModels& m, int bits, std::size_t max_points, bool duplicates,
                     std::vector<Point>& out) {
-  Decoding io{rc};
+  ColumnDecoding io{rc};
   if (io.bit(m.empty, 0) != 0) return true;
   const std::uint32_t shift = io.value(m.shift, 0);
   if (shift >= static_cast<std::uint32_t>(bits) || shift > kMaxColumnShift) return false;
