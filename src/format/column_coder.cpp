@@ -16,10 +16,9 @@ namespace {
 
 using Point = std::array<std::uint32_t, 3>;
 
-// The occupancy template: (row offset, column offset) of context bit k; rows above are negative.
-constexpr std::array<std::array<int, 2>, 10> kTemplate = {{
-    {0, -1}, {0, -2}, {-1, -1}, {-1, 0}, {-1, 1}, {-2, 0}, {-1, -2}, {-1, 2}, {-2, -1}, {-2, 1},
-}};
+// The occupancy template (docs/FORMAT.md, "The columns"): context bit k is the cell at (row
+// offset, column offset) (0,−1), (0,−2), (−1,−1), (−1,0), (−1,1), (−2,0), (−1,−2), (−1,2), (−2,−1),
+// (−2,1) for k = 0 … 9; rows above are negative.
 
 // The window of columns a lowest height is predicted from: rows −3..0, columns −3..3, those
 // coded before it.
@@ -38,7 +37,7 @@ std::int64_t det3(std::int64_t a, std::int64_t b, std::int64_t c, std::int64_t d
 // than one point. Row r lives in slot r mod 4; columns are padded by 2 on each side.
 class Rows {
  public:
-  explicit Rows(std::uint32_t width) : width_(width) {
+  explicit Rows(std::uint32_t width) : width_(width), zeros_(width + 4, 0) {
     for (auto& row : occupied_) row.assign(width + 4, 0);
     for (auto& row : lowest_) row.assign(width, 0);
     for (auto& row : stacked_) row.assign(width, 0);
@@ -47,13 +46,6 @@ class Rows {
     const std::size_t s = slot(row);
     std::fill(occupied_[s].begin(), occupied_[s].end(), 0);
     std::fill(stacked_[s].begin(), stacked_[s].end(), 0);
-  }
-  bool occupied(std::int64_t row, std::int64_t column) const {
-    if (row < 0 || column < -2 || column >= static_cast<std::int64_t>(width_) + 2) return false;
-    return occupied_[slot(row)][static_cast<std::size_t>(column + 2)] != 0;
-  }
-  std::uint32_t lowest(std::int64_t row, std::int64_t column) const {
-    return lowest_[slot(row)][static_cast<std::size_t>(column)];
   }
   bool stacked(std::int64_t row, std::int64_t column) const {
     if (row < 0 || column < 0) return false;
@@ -65,21 +57,30 @@ class Rows {
   }
   void set_stacked(std::int64_t row, std::int64_t column) { stacked_[slot(row)][static_cast<std::size_t>(column)] = 1; }
   std::int64_t width() const { return width_; }
+  // Row `row`'s occupancy from column −2 (all empty for a row before the first).
+  const std::uint8_t* occupied_row(std::int64_t row) const {
+    return row < 0 ? zeros_.data() : occupied_[slot(row)].data();
+  }
+  const std::uint32_t* lowest_row(std::int64_t row) const { return lowest_[slot(row)].data(); }
 
  private:
   static std::size_t slot(std::int64_t row) { return static_cast<std::size_t>(row & 3); }
   std::uint32_t width_;
+  std::vector<std::uint8_t> zeros_;
   std::array<std::vector<std::uint8_t>, 4> occupied_;
   std::array<std::vector<std::uint32_t>, 4> lowest_;
   std::array<std::vector<std::uint8_t>, 4> stacked_;
 };
 
+// Bit k of the context is the template's cell k, read from the padded rows without bounds
+// checks (the decoder spends most of its time here and in predict_lowest).
 std::size_t occupancy_context(const Rows& rows, std::int64_t r, std::int64_t c) {
-  std::size_t ctx = 0;
-  for (std::size_t k = 0; k < kTemplate.size(); ++k) {
-    if (rows.occupied(r + kTemplate[k][0], c + kTemplate[k][1])) ctx |= std::size_t{1} << k;
-  }
-  return ctx;
+  const std::uint8_t* r0 = rows.occupied_row(r) + 2 + c;
+  const std::uint8_t* r1 = rows.occupied_row(r - 1) + 2 + c;
+  const std::uint8_t* r2 = rows.occupied_row(r - 2) + 2 + c;
+  return std::size_t{r0[-1]} | std::size_t{r0[-2]} << 1 | std::size_t{r1[-1]} << 2 | std::size_t{r1[0]} << 3 |
+         std::size_t{r1[1]} << 4 | std::size_t{r2[0]} << 5 | std::size_t{r1[-2]} << 6 | std::size_t{r1[2]} << 7 |
+         std::size_t{r2[-1]} << 8 | std::size_t{r2[1]} << 9;
 }
 
 struct Prediction {
@@ -101,12 +102,16 @@ std::size_t quarter(std::int64_t t, std::int64_t den) { return static_cast<std::
 Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits) {
   std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
   std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
+  const std::int64_t first = std::max<std::int64_t>(0, c - kWindowColumns);
   for (std::int64_t dy = -kWindowRows; dy <= 0; ++dy) {
-    for (std::int64_t dx = -kWindowColumns; dx <= kWindowColumns; ++dx) {
-      if (dy == 0 && dx >= 0) break;
-      const std::int64_t cc = c + dx;
-      if (cc < 0 || cc >= rows.width() || !rows.occupied(r + dy, cc)) continue;
-      const std::uint32_t z = rows.lowest(r + dy, cc);
+    if (r + dy < 0) continue;
+    const std::uint8_t* occupied = rows.occupied_row(r + dy) + 2;
+    const std::uint32_t* lowest = rows.lowest_row(r + dy);
+    const std::int64_t last = dy == 0 ? c - 1 : std::min<std::int64_t>(rows.width() - 1, c + kWindowColumns);
+    for (std::int64_t cc = first; cc <= last; ++cc) {
+      if (occupied[cc] == 0) continue;
+      const std::int64_t dx = cc - c;
+      const std::uint32_t z = lowest[cc];
       const auto zi = static_cast<std::int64_t>(z);
       ++n;
       sx += dx;
