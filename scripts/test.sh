@@ -18,7 +18,7 @@ stage_done() { echo "== $1: $((SECONDS - stage_start)) s (total $SECONDS s)"; st
 
 echo "== release build (-Werror)"
 cmake -S . -B build-release -G Ninja -DCMAKE_BUILD_TYPE=Release -DSSPC_WERROR=ON
-release_targets=(sspc_cli sspc_cli_tests)
+release_targets=(sspc_cli sspc_cli_tests sspc_example)
 if grep -q '^SSPC_BUILD_PYTHON:BOOL=ON' build-release/CMakeCache.txt; then release_targets+=(_sspc); fi
 if grep -q '^SSPC_BUILD_BENCH:BOOL=ON' build-release/CMakeCache.txt; then
   release_targets+=(eval_bench normals_bench io_bench decode_bench make_variants)
@@ -26,7 +26,7 @@ fi
 cmake --build build-release -j "$jobs" --target "${release_targets[@]}"
 stage_done "release build"
 ctest --test-dir build-release --output-on-failure -j "$jobs" --timeout 600 \
-  -R '^(Cli|CliHelp|CliLas|CliReadWarnings|CliReliability|JsonKeys|Pipes|RateRegression|python|package)\.'
+  -R '^(Cli|CliHelp|CliLas|CliReadWarnings|CliReliability|JsonKeys|Pipes|RateRegression|example|python|package)\.'
 stage_done "release tests"
 
 # At -O1 with line tables only, like the TSan build below: the stack traces keep their lines and
@@ -40,7 +40,7 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSSPC_WERRO
 cmake --build build-asan -j "$jobs"
 stage_done "ASan+UBSan build"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^(package|python|RateRegression)\.'
+  ctest --test-dir build-asan --output-on-failure -j "$jobs" --timeout 900 -E '^(package|python|RateRegression|example)\.'
 stage_done "ASan+UBSan tests"
 
 # Only the test executables of the parallel stages are built (at -O1 with line tables only,

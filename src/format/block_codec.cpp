@@ -271,10 +271,13 @@ std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const 
     // The columns' order, carrying each point's index for its attributes.
     order.resize(kept.size());
     for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    // Raster order within a cell, as `sorted` has it (std::sort with the index as the last key:
+    // std::stable_sort's buffer comes from a nothrow operator new, which AllocationLimit's
+    // replacement of the allocator does not cover).
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
       const auto& p = sorted[a];
       const auto& q = sorted[b];
-      return std::tuple(p[1] >> shift, p[0] >> shift) < std::tuple(q[1] >> shift, q[0] >> shift);
+      return std::tuple(p[1] >> shift, p[0] >> shift, a) < std::tuple(q[1] >> shift, q[0] >> shift, b);
     });
     std::vector<std::array<std::uint32_t, 3>> coded(order.size());
     for (std::size_t k = 0; k < order.size(); ++k) {

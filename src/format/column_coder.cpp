@@ -300,7 +300,7 @@ int column_shift(std::span<const Point> points, int bits) {
 }
 
 void sort_for_columns(std::span<Point> points, int shift) {
-  std::stable_sort(points.begin(), points.end(), [shift](const Point& a, const Point& b) {
+  std::sort(points.begin(), points.end(), [shift](const Point& a, const Point& b) {
     return std::tuple(a[1] >> shift, a[0] >> shift, a[1], a[0], a[2]) <
            std::tuple(b[1] >> shift, b[0] >> shift, b[1], b[0], b[2]);
   });
