@@ -20,6 +20,7 @@
 #include "format/block_codec.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
+#include "format/quantize.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -227,8 +228,7 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
                                                     : source.patch_radius / 256.0f;
   h.position_bits = options.position_bits;
   if (options.position_step > 0) {
-    const double cells = 2.0 * static_cast<double>(source.patch_radius) / static_cast<double>(options.position_step);
-    h.position_bits = std::clamp(static_cast<int>(std::ceil(std::log2(cells))), kMinPositionBits, kMaxPositionBits);
+    h.position_bits = position_bits_for_step(source.patch_radius, options.position_step);
     h.patch_radius = std::max(source.patch_radius,
                               options.position_step * static_cast<float>(1u << (h.position_bits - 1)));
   }

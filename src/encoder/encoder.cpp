@@ -93,8 +93,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   } else {
     step = static_cast<float>(static_cast<double>(build.level.position_step) * build_stats.spacing);
     quant.position_step = step;
-    quant.position_bits = std::clamp(static_cast<int>(std::ceil(std::log2(2.0 * static_cast<double>(radius) / static_cast<double>(step)))),
-                                     codec::kMinPositionBits, codec::kMaxPositionBits);
+    quant.position_bits = codec::position_bits_for_step(radius, step);
   }
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;

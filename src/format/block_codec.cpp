@@ -8,7 +8,6 @@
 #include <bit>
 #include <cmath>
 #include <string>
-#include <tuple>
 
 #include "core/byte_reader.hpp"
 #include "core/check.hpp"
@@ -252,8 +251,8 @@ std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const 
   RangeEncoder rc(stream);
   ColumnModels models;
   AttributeWriter attributes{header, {}, {}};
-  std::vector<std::array<std::uint32_t, 3>> grid, sorted;
-  std::vector<std::uint32_t> order, kept;
+  std::vector<std::array<std::uint32_t, 3>> grid, sorted, coded;
+  std::vector<std::uint32_t> kept;
   for (const CodeWord& c : codewords) {
     grid.clear();
     for (const Vec3f& p : c.points) {
@@ -268,21 +267,10 @@ std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const 
       kept.push_back(i);
     }
     const int shift = column_shift(sorted, bits);
-    // The columns' order, carrying each point's index for its attributes.
-    order.resize(kept.size());
-    for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-    // Raster order within a cell, as `sorted` has it (std::sort with the index as the last key:
-    // std::stable_sort's buffer comes from a nothrow operator new, which AllocationLimit's
-    // replacement of the allocator does not cover).
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-      const auto& p = sorted[a];
-      const auto& q = sorted[b];
-      return std::tuple(p[1] >> shift, p[0] >> shift, a) < std::tuple(q[1] >> shift, q[0] >> shift, b);
-    });
-    std::vector<std::array<std::uint32_t, 3>> coded(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      coded[k] = sorted[order[k]];
-      attributes.add(c, kept[order[k]]);
+    coded.clear();
+    for (const std::uint32_t k : column_order(sorted, shift)) {
+      coded.push_back(sorted[k]);
+      attributes.add(c, kept[k]);
     }
     encode_columns(rc, models, coded, bits, shift, header.has_duplicates());
   }

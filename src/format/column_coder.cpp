@@ -299,11 +299,18 @@ int column_shift(std::span<const Point> points, int bits) {
   return shift;
 }
 
-void sort_for_columns(std::span<Point> points, int shift) {
-  std::sort(points.begin(), points.end(), [shift](const Point& a, const Point& b) {
-    return std::tuple(a[1] >> shift, a[0] >> shift, a[1], a[0], a[2]) <
-           std::tuple(b[1] >> shift, b[0] >> shift, b[1], b[0], b[2]);
+std::vector<std::uint32_t> column_order(std::span<const Point> points, int shift) {
+  std::vector<std::uint32_t> order(points.size());
+  for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+  // The index as the last key keeps the points' own order within a cell (std::stable_sort would
+  // too, but its buffer comes from a nothrow operator new, which AllocationLimit's replacement
+  // of the allocator does not cover).
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const Point& p = points[a];
+    const Point& q = points[b];
+    return std::tuple(p[1] >> shift, p[0] >> shift, a) < std::tuple(q[1] >> shift, q[0] >> shift, b);
   });
+  return order;
 }
 
 void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, int shift,

@@ -31,7 +31,7 @@ float position_step(float patch_radius, int bits) {
 
 int position_bits_for_step(double patch_radius, double step) {
   if (!(step > 0) || !(patch_radius > 0)) return kMaxPositionBits;
-  const double bits = std::round(std::log2(2.0 * patch_radius / step));
+  const double bits = std::ceil(std::log2(2.0 * patch_radius / step));
   return static_cast<int>(std::clamp(bits, double{kMinPositionBits}, double{kMaxPositionBits}));
 }
 

@@ -16,8 +16,8 @@ namespace sspc::codec {
 // --- Code-word positions: offset-binary values below 2^bits, cell midpoints on decode.
 
 float position_step(float patch_radius, int bits);
-// The bits (within the format's 4..16) whose step is nearest `step` in ratio: within a factor
-// √2 of it, since the grid's steps are 2·patch_radius / 2^bits.
+// The fewest bits (within the format's 4..16) whose grid of `step` spans ±patch_radius: what the
+// writer stores when it is given an exact step (QuantOptions::position_step).
 int position_bits_for_step(double patch_radius, double step);
 std::uint32_t quantize_coordinate(float x, float step, int bits);
 inline float dequantize_coordinate(std::uint32_t v, float step, int bits) {
