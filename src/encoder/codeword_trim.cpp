@@ -97,8 +97,7 @@ CodeWord merge_cells(const CodeWord& w, float step, int bits) {
 
 }  // namespace
 
-EncodedModel express_in_decoded_frames(const EncodedModel& model, const ContainerHeader& h) {
-  EncodedModel out = model;
+void express_in_decoded_frames(EncodedModel& model, const ContainerHeader& h) {
   constexpr auto kNone = static_cast<std::size_t>(-1);
   std::vector<std::size_t> representative(model.codebook.size(), kNone);
   for (std::size_t k = 0; k < model.patches.size(); ++k) {
@@ -117,30 +116,19 @@ EncodedModel express_in_decoded_frames(const EncodedModel& model, const Containe
     if (!quantize_translation(exact.translation, h.bounds_min, h.translation_step, grid)) return;
     decoded.translation = dequantize_translation(grid, h.bounds_min, h.translation_step);
     moved[c] = decoded.inverse() * exact;
-    CodeWord& w = out.codebook[c];
+    CodeWord& w = model.codebook[c];
     for (Vec3f& q : w.points) q = moved[c].apply(q);
     for (Vec3f& n : w.normals) n = moved[c].apply_vector(n);
   });
-  for (PatchInstance& p : out.patches) {
+  for (PatchInstance& p : model.patches) {
     p.world_from_codeword = p.world_from_codeword * moved[p.codeword].inverse();
   }
-  return out;
 }
 
-EncodedModel merge_duplicate_cells(const EncodedModel& model, const ContainerHeader& h, TrimStats* stats) {
-  EncodedModel out = without_codebook(model);
-  out.codebook.resize(model.codebook.size());
+void merge_duplicate_cells(EncodedModel& model, const ContainerHeader& h) {
   const float step = position_step(h.patch_radius, h.position_bits);
   parallel_for(0, model.codebook.size(), 16,
-               [&](std::size_t c) { out.codebook[c] = merge_cells(model.codebook[c], step, h.position_bits); });
-  if (stats != nullptr) {
-    stats->points_before = stats->points_after = 0;
-    for (std::size_t c = 0; c < model.codebook.size(); ++c) {
-      stats->points_before += model.codebook[c].points.size();
-      stats->points_after += out.codebook[c].points.size();
-    }
-  }
-  return out;
+               [&](std::size_t c) { model.codebook[c] = merge_cells(model.codebook[c], step, h.position_bits); });
 }
 
 EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& h,

@@ -26,15 +26,14 @@ struct TrimStats {
 // whatever the transform's bits; the other instances' transforms absorb the same move, so they
 // decode what they did before. Without it, a half-step translation grid added 0.25 steps RMS
 // to every point, about 1 dB (docs/FORMAT_NOTES.md, "Cost of patches").
-EncodedModel express_in_decoded_frames(const EncodedModel& model, const ContainerHeader& header);
+void express_in_decoded_frames(EncodedModel& model, const ContainerHeader& header);
 
 // One point per occupied cell of the code words' grid (docs/FORMAT.md, "Code-book blocks"): a
 // cell's points decode to the same position, so only the first is kept, with the mean of the
 // cell's normals (normalised) and colours. On a grid coarser than the spacing this drops
 // 20–30% of the points for ≤ 0.06 dB of the paper's PSNR (docs/FORMAT_NOTES.md). `header` must
 // carry position_bits and patch_radius.
-EncodedModel merge_duplicate_cells(const EncodedModel& model, const ContainerHeader& header,
-                                   TrimStats* stats = nullptr);
+void merge_duplicate_cells(EncodedModel& model, const ContainerHeader& header);
 
 // `header` must carry the quantisation fields the writer will use (position_bits,
 // rotation_bits, translation_step, bounds_min). Every translation must fit the grid.

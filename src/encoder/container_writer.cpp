@@ -238,16 +238,17 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   h.patch_count = static_cast<std::uint32_t>(source.patches.size());
   h.codewords_per_block = options.codewords_per_block;
   h.patches_per_block = options.patches_per_block;
-  const EncodedModel framed = express_in_decoded_frames(source, h);
-  EncodedModel merged, trimmed;
-  if (!options.keep_duplicates) merged = merge_duplicate_cells(framed, h);
-  const EncodedModel& unique = options.keep_duplicates ? framed : merged;
+  // One working copy of the code book, moved into the decoded frames and merged in place.
+  EncodedModel working = source;
+  express_in_decoded_frames(working, h);
+  if (!options.keep_duplicates) merge_duplicate_cells(working, h);
+  EncodedModel trimmed;
   if (options.trim_unclaimed) {
     TrimStats trim;
-    trimmed = trim_unclaimed_points(unique, h, &trim);
+    trimmed = trim_unclaimed_points(working, h, &trim);
     if (stats != nullptr) stats->untrimmed_codeword_points = trim.points_before;
   }
-  const EncodedModel& model = options.trim_unclaimed ? trimmed : unique;
+  const EncodedModel& model = options.trim_unclaimed ? trimmed : working;
   for (const CodeWord& w : model.codebook) h.codeword_point_count += w.points.size();
 
   // Code-book blocks.
