@@ -20,7 +20,8 @@ namespace {
 // - an instanced patch is off by about τ spacings RMS, its own code word by half a step, so a
 //   match is accepted when it is no worse than the patch's own coding would be: τ = step / 2.
 //   At the paper's τ of 1–2 spacings, instancing lost 0.3–1.6 dB for 5–10% of the bits at
-//   steps below 1.4 spacings (above the resampling ceiling, SPEC "What limits the rate").
+//   steps below 1.4 spacings (above the resampling ceiling,
+//   docs/FORMAT_NOTES.md "Level table").
 constexpr std::array<LevelParams, 10> kLevels = {{
     {4096, 0.50f, 0.04f, 0.08f},
     {4096, 0.50f, 0.07f, 0.14f},

@@ -50,23 +50,24 @@ ZSTD_DCtx* thread_dctx() {
   return ctx.get();
 }
 
-}  // namespace
-
-StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes,
-                                                std::string name) {
-  // A copy: `name` is moved into the reader below, and later failures must still name the file.
-  auto fail = [file = name](std::uint64_t offset, const std::string& what) {
+// A corrupt-file status naming the file and the byte offset of the broken field.
+struct Failure {
+  std::string file;
+  Status operator()(std::uint64_t offset, const std::string& what) const {
     return corrupt(file + ": byte " + std::to_string(offset) + ": " + what);
-  };
+  }
+};
+
+// Step 1: magic, version, the header's size and CRC. Returns the version.
+StatusOr<std::uint16_t> check_preamble(std::span<const std::byte> bytes, const Failure& fail) {
   if (bytes.size() < kMagic.size() ||
       std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
-    return corrupt(name + ": not an .sspc file (bad magic number)");
+    return corrupt(fail.file + ": not an .sspc file (bad magic number)");
   }
   if (bytes.size() < 10) return fail(bytes.size(), "truncated header (no version)");
-  const std::byte* p = bytes.data();
-  const std::uint16_t version = le16(p + 8);
+  const std::uint16_t version = le16(bytes.data() + 8);
   if (version < kOldestFormatVersion || version > kFormatVersion) {
-    return unsupported(name + ": .sspc format version " + std::to_string(version) +
+    return unsupported(fail.file + ": .sspc format version " + std::to_string(version) +
                        " (this sspc reads versions " + std::to_string(kOldestFormatVersion) + " to " +
                        std::to_string(kFormatVersion) + ")");
   }
@@ -74,17 +75,18 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
     return fail(bytes.size(), "truncated header: " + std::to_string(bytes.size()) + " of " +
                                   std::to_string(kHeaderSize) + " bytes");
   }
-  const std::uint32_t stored_crc = le32(p + kHeaderCrcOffset);
+  const std::uint32_t stored_crc = le32(bytes.data() + kHeaderCrcOffset);
   const std::uint32_t crc = crc32_of(bytes.first(kHeaderCrcOffset));
   if (stored_crc != crc) {
     return fail(kHeaderCrcOffset, "header CRC32 mismatch (stored " + hex32(stored_crc) +
                                       ", computed " + hex32(crc) + ")");
   }
+  return version;
+}
 
-  ContainerReader r;
-  r.bytes_ = bytes;
-  r.name_ = std::move(name);
-  ContainerHeader& h = r.header_;
+// Step 2: the header's fields (FORMAT.md "Header"), each checked against its range.
+Status read_header_fields(const std::byte* p, std::uint16_t version, const Failure& fail,
+                          ContainerHeader& h) {
   h.version = version;
   h.flags = le16(p + 10);
   if ((h.flags & ~kKnownFlags) != 0) return fail(10, "unknown flags " + hex32(h.flags));
@@ -134,12 +136,17 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
   if (p[71] != std::byte{0}) return fail(71, "reserved byte is not 0");
   if (h.codewords_per_block == 0) return fail(88, "codewords_per_block is 0");
   if (h.patches_per_block == 0) return fail(92, "patches_per_block is 0");
+  return Status();
+}
 
-  // Sections: in order, contiguous from the header's end to the file's end.
+// Step 3: the section table. Sections are in order and contiguous from the header's end;
+// returns where the last one ends.
+StatusOr<std::uint64_t> read_section_table(std::span<const std::byte> bytes, const Failure& fail,
+                                           ContainerHeader& h) {
   std::uint64_t expected = kHeaderSize;
   for (std::size_t i = 0; i < kSectionCount; ++i) {
-    const std::byte* e = p + kSectionTableOffset + i * kSectionEntrySize;
     const std::uint64_t at = kSectionTableOffset + i * kSectionEntrySize;
+    const std::byte* e = bytes.data() + at;
     SectionEntry& s = h.sections[i];
     const std::uint32_t kind = le32(e);
     if (kind != i + 1)
@@ -160,17 +167,13 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
     }
     expected = s.offset + s.size;
   }
-  if (h.has_metadata()) {
-    auto metadata = decode_metadata(bytes.subspan(static_cast<std::size_t>(expected)), expected,
-                                    r.name_);
-    if (!metadata.ok()) return metadata.status();
-    r.metadata_ = std::move(*metadata);
-  } else if (expected != bytes.size()) {
-    return fail(expected, std::to_string(bytes.size() - expected) +
-                              " trailing bytes after the declared end of the file");
-  }
+  return expected;
+}
 
-  // Seek tables: their sizes follow from the counts, which bounds the counts by the file size.
+// Step 4: the seek tables' sizes follow from the counts (which bounds the counts by the file
+// size), and their CRCs are checked before any entry is trusted.
+Status check_seek_tables(std::span<const std::byte> bytes, const ContainerHeader& h,
+                         const Failure& fail) {
   const SectionEntry& cw_seek = h.sections[1];
   const SectionEntry& p_seek = h.sections[3];
   const std::uint64_t cw_blocks = block_count(h.codeword_count, h.codewords_per_block);
@@ -193,80 +196,119 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
                                  hex32(s->crc32) + ", computed " + hex32(c) + ")");
     }
   }
+  return Status();
+}
 
-  auto parse_entries = [&](const SectionEntry& seek, const SectionEntry& data, std::uint64_t count,
-                           std::uint32_t per_block, std::uint64_t items, bool patches,
-                           std::vector<BlockEntry>& out) -> Status {
-    out.resize(count);
-    std::uint64_t next = 0;
-    std::uint64_t points = 0;
-    const std::size_t entry_size = patches ? kPatchSeekEntrySize : kCodebookSeekEntrySize;
-    for (std::uint64_t b = 0; b < count; ++b) {
-      const std::uint64_t at = seek.offset + b * entry_size;
-      const std::byte* e = p + at;
-      BlockEntry& x = out[b];
-      x.offset = le64(e);
-      x.stored_size = le32(e + 8);
-      x.raw_size = le32(e + 12);
-      x.crc32 = le32(e + 16);
-      x.first = le32(e + 20);
-      x.count = le32(e + 24);
-      const std::string what =
-          std::string(section_name(seek.kind)) + ", block " + std::to_string(b);
-      if (x.offset != next)
-        return fail(at, what + ": offset " + std::to_string(x.offset) + ", expected " +
-                            std::to_string(next));
-      if (x.stored_size == 0 || x.raw_size == 0 || x.stored_size > x.raw_size ||
-          x.raw_size > kMaxRawBlockSize) {
-        return fail(at + 8, what + ": bad sizes (stored " + std::to_string(x.stored_size) +
-                                ", raw " + std::to_string(x.raw_size) + ")");
-      }
-      if (x.raw_size > std::uint64_t{x.stored_size} * kMaxBlockExpansion) {
-        return fail(at + 8, what + ": " + std::to_string(x.stored_size) +
-                                " stored bytes cannot expand to " + std::to_string(x.raw_size) +
-                                " (at most " + std::to_string(kMaxBlockExpansion) + "x)");
-      }
-      if (x.stored_size > data.size - next) {
-        return fail(at + 8, what + " runs past the end of its section");
-      }
-      next += x.stored_size;
-      const std::uint64_t first = b * per_block;
-      if (x.first != first || x.count != std::min<std::uint64_t>(per_block, items - first)) {
-        return fail(at + 20, what + ": first/count " + std::to_string(x.first) + "/" +
-                                 std::to_string(x.count) + " do not match the block's position");
-      }
-      if (patches) {
-        if (le32(e + 28) != 0) return fail(at + 28, what + ": reserved field is not 0");
-        const Vec3f lo = levec3(e + 32), hi = levec3(e + 44);
-        if (!lo.allFinite() || !hi.allFinite() || !(lo.array() <= hi.array()).all()) {
-          return fail(at + 32, what + ": bad box");
-        }
-        x.box = Box3f(lo, hi);
-      } else {
-        x.point_count = le32(e + 28);
-        if (!codeword_points_fit(h, x.point_count, x.raw_size)) {
-          return fail(at + 28, what + ": " + std::to_string(x.point_count) +
-                                   " points cannot fit in " + std::to_string(x.raw_size) +
-                                   " bytes");
-        }
-        points += x.point_count;
-      }
+// Which seek table step 5 reads: the two share the first 28 bytes of an entry (FORMAT.md
+// "Seek tables") and differ in the rest.
+struct SeekTable {
+  const SectionEntry& seek;
+  const SectionEntry& data;
+  std::uint32_t per_block;
+  std::uint64_t items;
+  bool patches;
+};
+
+// Step 5: one seek table's entries. Blocks tile their data section in order, each holds the
+// items its position says, and (code book) the point counts add up to the header's.
+Status read_seek_entries(std::span<const std::byte> bytes, const ContainerHeader& h,
+                         const SeekTable& t, const Failure& fail, std::vector<BlockEntry>& out) {
+  out.resize(block_count(t.items, t.per_block));
+  std::uint64_t next = 0;
+  std::uint64_t points = 0;
+  const std::size_t entry_size = t.patches ? kPatchSeekEntrySize : kCodebookSeekEntrySize;
+  for (std::uint64_t b = 0; b < out.size(); ++b) {
+    const std::uint64_t at = t.seek.offset + b * entry_size;
+    const std::byte* e = bytes.data() + at;
+    BlockEntry& x = out[b];
+    x.offset = le64(e);
+    x.stored_size = le32(e + 8);
+    x.raw_size = le32(e + 12);
+    x.crc32 = le32(e + 16);
+    x.first = le32(e + 20);
+    x.count = le32(e + 24);
+    const std::string what = std::string(section_name(t.seek.kind)) + ", block " + std::to_string(b);
+    if (x.offset != next)
+      return fail(at, what + ": offset " + std::to_string(x.offset) + ", expected " +
+                          std::to_string(next));
+    if (x.stored_size == 0 || x.raw_size == 0 || x.stored_size > x.raw_size ||
+        x.raw_size > kMaxRawBlockSize) {
+      return fail(at + 8, what + ": bad sizes (stored " + std::to_string(x.stored_size) +
+                              ", raw " + std::to_string(x.raw_size) + ")");
     }
-    if (next != data.size) {
-      return fail(data.offset + next, std::string(section_name(data.kind)) + ": " +
-                                          std::to_string(data.size - next) +
+    if (x.raw_size > std::uint64_t{x.stored_size} * kMaxBlockExpansion) {
+      return fail(at + 8, what + ": " + std::to_string(x.stored_size) +
+                              " stored bytes cannot expand to " + std::to_string(x.raw_size) +
+                              " (at most " + std::to_string(kMaxBlockExpansion) + "x)");
+    }
+    if (x.stored_size > t.data.size - next) {
+      return fail(at + 8, what + " runs past the end of its section");
+    }
+    next += x.stored_size;
+    const std::uint64_t first = b * t.per_block;
+    if (x.first != first || x.count != std::min<std::uint64_t>(t.per_block, t.items - first)) {
+      return fail(at + 20, what + ": first/count " + std::to_string(x.first) + "/" +
+                               std::to_string(x.count) + " do not match the block's position");
+    }
+    if (t.patches) {
+      if (le32(e + 28) != 0) return fail(at + 28, what + ": reserved field is not 0");
+      const Vec3f lo = levec3(e + 32), hi = levec3(e + 44);
+      if (!lo.allFinite() || !hi.allFinite() || !(lo.array() <= hi.array()).all()) {
+        return fail(at + 32, what + ": bad box");
+      }
+      x.box = Box3f(lo, hi);
+    } else {
+      x.point_count = le32(e + 28);
+      if (!codeword_points_fit(h, x.point_count, x.raw_size)) {
+        return fail(at + 28, what + ": " + std::to_string(x.point_count) +
+                                 " points cannot fit in " + std::to_string(x.raw_size) + " bytes");
+      }
+      points += x.point_count;
+    }
+  }
+  if (next != t.data.size) {
+    return fail(t.data.offset + next, std::string(section_name(t.data.kind)) + ": " +
+                                          std::to_string(t.data.size - next) +
                                           " bytes after the last block");
-    }
-    if (!patches && points != h.codeword_point_count) {
-      return fail(80, "codeword_point_count " + std::to_string(h.codeword_point_count) +
-                          " but the seek table adds up to " + std::to_string(points));
-    }
-    return Status();
-  };
-  SSPC_RETURN_IF_ERROR(parse_entries(cw_seek, h.sections[0], cw_blocks, h.codewords_per_block,
-                                     h.codeword_count, false, r.codebook_blocks_));
-  SSPC_RETURN_IF_ERROR(parse_entries(p_seek, h.sections[2], p_blocks, h.patches_per_block,
-                                     h.patch_count, true, r.patch_blocks_));
+  }
+  if (!t.patches && points != h.codeword_point_count) {
+    return fail(80, "codeword_point_count " + std::to_string(h.codeword_point_count) +
+                        " but the seek table adds up to " + std::to_string(points));
+  }
+  return Status();
+}
+
+}  // namespace
+
+StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes,
+                                                std::string name) {
+  const Failure fail{name};
+  auto version = check_preamble(bytes, fail);
+  if (!version.ok()) return version.status();
+
+  ContainerReader r;
+  r.bytes_ = bytes;
+  r.name_ = std::move(name);
+  ContainerHeader& h = r.header_;
+  SSPC_RETURN_IF_ERROR(read_header_fields(bytes.data(), *version, fail, h));
+  auto sections_end = read_section_table(bytes, fail, h);
+  if (!sections_end.ok()) return sections_end.status();
+  const std::uint64_t end = *sections_end;
+  if (h.has_metadata()) {
+    auto metadata = decode_metadata(bytes.subspan(static_cast<std::size_t>(end)), end, r.name_);
+    if (!metadata.ok()) return metadata.status();
+    r.metadata_ = std::move(*metadata);
+  } else if (end != bytes.size()) {
+    return fail(end, std::to_string(bytes.size() - end) +
+                         " trailing bytes after the declared end of the file");
+  }
+  SSPC_RETURN_IF_ERROR(check_seek_tables(bytes, h, fail));
+  SSPC_RETURN_IF_ERROR(read_seek_entries(
+      bytes, h, {h.sections[1], h.sections[0], h.codewords_per_block, h.codeword_count, false},
+      fail, r.codebook_blocks_));
+  SSPC_RETURN_IF_ERROR(read_seek_entries(
+      bytes, h, {h.sections[3], h.sections[2], h.patches_per_block, h.patch_count, true}, fail,
+      r.patch_blocks_));
   return r;
 }
 
