@@ -43,7 +43,7 @@ sspc::codec::EncodedModel plane_model() {
   m.has_normals = true;
   m.bounds = sspc::Box3f(Vec3f(0, 0, -0.1f), Vec3f(999, 999, 0.1f));
   for (int c = 0; c < 32; ++c) {
-    sspc::codec::CodeWord w;
+    sspc::codec::Codeword w;
     for (int y = -8; y <= 8; ++y) {
       for (int x = -8; x <= 8; ++x) {
         const Vec3f p(static_cast<float>(x) + 0.6f * unit(rng) - 0.3f,

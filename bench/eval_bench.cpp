@@ -10,7 +10,7 @@
 
 #include "sspc/io.hpp"
 #include "sspc/metrics.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/synthetic.hpp"
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "sspc/io.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 int main(int argc, char** argv) {
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
     if (pick.uniform() < 0.5) continue;
     half.positions.push_back(cloud->positions[i]);
     if (cloud->has_normals()) half.normals.push_back(cloud->normals[i]);
-    if (cloud->has_colors()) half.colors.push_back(cloud->colors[i]);
+    if (cloud->has_colours()) half.colours.push_back(cloud->colours[i]);
   }
   for (const auto& [name, c] : {std::pair{"noisy.ply", &noisy}, std::pair{"half.ply", &half}}) {
     const sspc::Status s = sspc::write_ply(*c, out_dir / name);

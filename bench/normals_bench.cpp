@@ -17,7 +17,7 @@
 
 #include "core/parallel.hpp"
 #include "sspc/io.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/synthetic.hpp"
 

@@ -66,10 +66,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                  0.01f * static_cast<float>(data[i + 2]));
   }
   if ((flags & 0x10) != 0) {
-    cloud.colors.resize(cloud.size());
+    cloud.colours.resize(cloud.size());
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       const auto v = static_cast<std::uint8_t>(i * 37);
-      cloud.colors[i] = sspc::Rgb8{v, static_cast<std::uint8_t>(255 - v), flags};
+      cloud.colours[i] = sspc::Rgb8{v, static_cast<std::uint8_t>(255 - v), flags};
     }
   }
   sspc::EncodeOptions options;

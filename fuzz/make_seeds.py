@@ -26,12 +26,12 @@ def points(n=12):
     return out
 
 
-def ply_header(fmt, n, normals, colors, extra=""):
+def ply_header(fmt, n, normals, colours, extra=""):
     h = "ply\nformat %s 1.0\ncomment seed\nelement vertex %d\n" % (fmt, n)
     h += "property float x\nproperty float y\nproperty float z\n"
     if normals:
         h += "property float nx\nproperty float ny\nproperty float nz\n"
-    if colors:
+    if colours:
         h += "property uchar red\nproperty uchar green\nproperty uchar blue\n"
     return h + extra + "end_header\n"
 
@@ -137,7 +137,7 @@ def xyz_seeds():
     write("xyz_reader", "xyz.xyz", "".join("%g %g %g\n" % p for p, _, _ in pts))
     write("xyz_reader", "normals.xyz",
           "".join("%g %g %g %g %g %g\n" % (*p, *n) for p, n, _ in pts))
-    write("xyz_reader", "colors_comma.txt",
+    write("xyz_reader", "colours_comma.txt",
           "# x,y,z,r,g,b\n" + "".join("%g,%g,%g,%d,%d,%d\r\n" % (*p, *c) for p, _, c in pts))
     write("xyz_reader", "pts.pts", "%d\n" % len(pts) +
           "".join("%g %g %g 0 %d %d %d\n" % (*p, *c) for p, _, c in pts))
@@ -195,7 +195,7 @@ def roundtrip_seeds():
     write("encode_roundtrip", "plane", grid(0, plane))
     wave = [(x * 6, y * 6, int(128 + 40 * math.sin(x / 4) * math.cos(y / 5)))
             for x in range(30) for y in range(30)]
-    write("encode_roundtrip", "wave_normals_colors", grid(0x14 | 1, wave))
+    write("encode_roundtrip", "wave_normals_colours", grid(0x14 | 1, wave))
     sphere = []
     for i in range(600):
         t = math.acos(1 - 2 * (i + 0.5) / 600)

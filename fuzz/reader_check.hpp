@@ -28,7 +28,7 @@ inline void check_read_result(const StatusOr<PointCloud>& result) {
   SSPC_FUZZ_CHECK(again.ok());
   SSPC_FUZZ_CHECK(again->positions == cloud.positions);
   SSPC_FUZZ_CHECK(again->normals == cloud.normals);
-  SSPC_FUZZ_CHECK(again->colors == cloud.colors);
+  SSPC_FUZZ_CHECK(again->colours == cloud.colours);
 }
 
 // `read` is one of io::read_*_with_options; `plain` what the same reader gave without options.
@@ -43,7 +43,7 @@ void check_read_with_options(Read read, std::span<const std::byte> bytes,
     SSPC_FUZZ_CHECK(std::memcmp(other->positions.data(), plain->positions.data(),
                                 plain->positions.size() * sizeof(Vec3f)) == 0);
     SSPC_FUZZ_CHECK(other->normals == plain->normals);
-    SSPC_FUZZ_CHECK(other->colors == plain->colors);
+    SSPC_FUZZ_CHECK(other->colours == plain->colours);
   };
   std::vector<std::string> warnings;
   ReadOptions options;

@@ -29,13 +29,13 @@ using sspc::PointCloud;
 constexpr std::size_t kMaxVisited = 256;
 
 bool same_cloud(const PointCloud& a, const PointCloud& b) {
-  return a.positions == b.positions && a.normals == b.normals && a.colors == b.colors;
+  return a.positions == b.positions && a.normals == b.normals && a.colours == b.colours;
 }
 
 void append(PointCloud& dst, const PointCloud& src) {
   dst.positions.insert(dst.positions.end(), src.positions.begin(), src.positions.end());
   dst.normals.insert(dst.normals.end(), src.normals.begin(), src.normals.end());
-  dst.colors.insert(dst.colors.end(), src.colors.begin(), src.colors.end());
+  dst.colours.insert(dst.colours.end(), src.colours.begin(), src.colours.end());
 }
 
 void check_model(const std::string& bytes) {
@@ -113,7 +113,7 @@ void check_model(const std::string& bytes) {
       if (!box.contains(all->positions[i])) continue;
       expected.positions.push_back(all->positions[i]);
       if (!all->normals.empty()) expected.normals.push_back(all->normals[i]);
-      if (!all->colors.empty()) expected.colors.push_back(all->colors[i]);
+      if (!all->colours.empty()) expected.colours.push_back(all->colours[i]);
     }
     SSPC_FUZZ_CHECK(same_cloud(*clipped, expected));
   }

@@ -56,7 +56,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   // silently.
   if (!cloud->las.empty()) {
     std::fprintf(stderr, "sspc: warning: %s: the .sspc model keeps positions%s; dropped %s\n",
-                 input_name.c_str(), cloud->has_colors() ? " and colours" : "",
+                 input_name.c_str(), cloud->has_colours() ? " and colours" : "",
                  cloud->las.names().c_str());
     cloud->las.clear();
   }

@@ -6,7 +6,7 @@
 
 #include "command.hpp"
 #include "sspc/io.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::cli {
 namespace {
@@ -39,7 +39,7 @@ std::string format_vec3(const Vec3d& v) {
 std::string attribute_names(const PointCloud& cloud) {
   std::string out = "positions";
   if (cloud.has_normals()) out += " normals";
-  if (cloud.has_colors()) out += " colors";
+  if (cloud.has_colours()) out += " colours";
   if (!cloud.las.empty()) out += "; LAS: " + cloud.las.names();
   return out;
 }
@@ -94,7 +94,7 @@ int run_info(const InfoOptions& options, const GlobalOptions& global) {
     json["file_bytes"] = static_cast<std::uint64_t>(ec ? 0 : file_bytes);
     json["points"] = cloud->size();
     json["normals"] = cloud->has_normals();
-    json["colors"] = cloud->has_colors();
+    json["colours"] = cloud->has_colours();
     json["las_attributes"] = cloud->las.names();
     json["origin"] = json_vec3(cloud->origin);
     json["crs"] = cloud->metadata.has_crs();

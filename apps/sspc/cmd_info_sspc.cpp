@@ -32,7 +32,7 @@ int run_info_sspc(const std::string& path, bool as_json) {
   const ModelInfo m = model->info();
   std::string attributes = "positions";
   if (m.has_normals) attributes += " normals";
-  if (m.has_colors) attributes += " colors";
+  if (m.has_colours) attributes += " colours";
 
   if (as_json) {
     Json json = json_report("info");
@@ -45,7 +45,7 @@ int run_info_sspc(const std::string& path, bool as_json) {
     json["comments"] = model->metadata().comments.size();
     json["las_grid"] = model->metadata().las.has_value();
     json["normals"] = m.has_normals;
-    json["colors"] = m.has_colors;
+    json["colours"] = m.has_colours;
     json["source_points"] = m.source_points;
     json["patches"] = m.patches;
     json["codewords"] = m.codewords;

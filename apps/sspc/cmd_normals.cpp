@@ -96,7 +96,7 @@ Command add_normals_command(CLI::App& root, const GlobalOptions& global) {
       ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case).description(""))
       ->type_name("auto|keep|estimate")
       ->default_str("estimate");
-  app->add_option("-k,--neighbors", options->k, "Neighbours for the PCA")
+  app->add_option("-k,--neighbours", options->k, "Neighbours for the PCA")
       ->check(CLI::Range(3, 256).description(""))
       ->type_name("3..256")
       ->capture_default_str();

@@ -47,7 +47,7 @@ struct PatchRecord {
 };
 
 // One code word, decoded, in its own frame (origin = the representative patch's centre).
-struct CodeWordData {
+struct CodewordData {
   PointCloud points;  // normals and colours when the model has them
   float radius = 0;   // largest distance of a point from the origin: the instances' bounding sphere
 };
@@ -63,7 +63,7 @@ struct SectionInfo {
 struct ModelInfo {
   int version = 0;
   bool has_normals = false;
-  bool has_colors = false;
+  bool has_colours = false;
   float patch_radius = 0;
   float coverage_radius = 0;
   float spacing = 0;
@@ -102,7 +102,7 @@ class CompressedModel {
   std::size_t codeword_count() const;
 
   StatusOr<PatchRecord> patch(std::size_t k) const;
-  StatusOr<CodeWordData> codeword(std::size_t c) const;
+  StatusOr<CodewordData> codeword(std::size_t c) const;
 
   // Where the model lies: a point in the world is origin() + its decoded position (in double).
   // Every position the model answers with (patches, boxes, bounds) is local to it; decoded

@@ -71,7 +71,7 @@ enum class PlyEncoding { kBinaryLittleEndian, kBinaryBigEndian, kAscii };
 struct PlyWriteOptions {
   PlyEncoding encoding = PlyEncoding::kBinaryLittleEndian;
   bool write_normals = true;  // when the cloud has them
-  bool write_colors = true;   // when the cloud has them
+  bool write_colours = true;   // when the cloud has them
   std::vector<std::string> comments;
 };
 

@@ -93,7 +93,7 @@ struct CloudMetadata {
   friend bool operator==(const CloudMetadata&, const CloudMetadata&) = default;
 };
 
-// Structure of arrays: `normals`, `colors` and every array of `las` are either empty or exactly
+// Structure of arrays: `normals`, `colours` and every array of `las` are either empty or exactly
 // as long as `positions`.
 //
 // Positions are local: a point's place in the world is origin + position, in double. float32
@@ -103,7 +103,7 @@ struct CloudMetadata {
 struct PointCloud {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;
-  std::vector<Rgb8> colors;
+  std::vector<Rgb8> colours;
   Vec3d origin = Vec3d::Zero();
   LasPointAttributes las;
   CloudMetadata metadata;
@@ -114,9 +114,9 @@ struct PointCloud {
   std::size_t size() const { return positions.size(); }
   bool empty() const { return positions.empty(); }
   bool has_normals() const { return !normals.empty(); }
-  bool has_colors() const { return !colors.empty(); }
+  bool has_colours() const { return !colours.empty(); }
 
-  void reserve(std::size_t n, bool with_normals, bool with_colors);
+  void reserve(std::size_t n, bool with_normals, bool with_colours);
 
   // Axis-aligned bounds of the positions; an empty box for an empty cloud.
   Box3f bounding_box() const;

@@ -29,9 +29,9 @@ def load(path):
         return sspc.read(path)
     o3d_cloud = o3d.io.read_point_cloud(str(path))
     normals = np.asarray(o3d_cloud.normals) if o3d_cloud.has_normals() else None
-    colors = (np.asarray(o3d_cloud.colors) * 255).round().astype(np.uint8) if o3d_cloud.has_colors() else None
+    colours = (np.asarray(o3d_cloud.colors) * 255).round().astype(np.uint8) if o3d_cloud.has_colors() else None
     print(f"read by open3d {o3d.__version__}")
-    return sspc.PointCloud(np.asarray(o3d_cloud.points), normals, colors)  # float64 -> float32, one copy
+    return sspc.PointCloud(np.asarray(o3d_cloud.points), normals, colours)  # float64 -> float32, one copy
 
 
 def main():

@@ -132,7 +132,7 @@ py::dict model_info(const CompressedModel& model) {
   d["version"] = m.version;
   d["file_bytes"] = m.file_bytes;
   d["normals"] = m.has_normals;
-  d["colors"] = m.has_colors;
+  d["colours"] = m.has_colours;
   d["source_points"] = m.source_points;
   d["patches"] = m.patches;
   d["codewords"] = m.codewords;
@@ -198,7 +198,7 @@ py::dict patch_record(const CompressedModel& model, py::ssize_t k) {
 
 py::dict codeword(const CompressedModel& model, py::ssize_t c) {
   const std::size_t index = checked_index(c, model.codeword_count(), "code word");
-  CodeWordData data = value_or_raise(without_gil([&] { return model.codeword(index); }));
+  CodewordData data = value_or_raise(without_gil([&] { return model.codeword(index); }));
   py::dict d;
   d["points"] = py::cast(std::move(data.points));
   d["radius"] = data.radius;
@@ -240,7 +240,7 @@ file raises RuntimeError ("corrupt: ...") naming the section, block and byte off
       .def_property_readonly("codeword_count", &CompressedModel::codeword_count, "The number of code words.")
       .def("info", &model_info, R"doc(
 The model's header as `sspc info --json` prints it: a dict with format, version, file_bytes,
-normals, colors, source_points, patches, codewords, codeword_points, overlap_points,
+normals, colours, source_points, patches, codewords, codeword_points, overlap_points,
 codebook_ratio, bits_per_point, patch_radius, coverage_radius, codeword_radius, spacing, bbox_min,
 bbox_max, position_bits, normal_bits, rotation_bits, translation_step, patches_per_block,
 codewords_per_block and sections. The encoder's level is not stored in the file.)doc")

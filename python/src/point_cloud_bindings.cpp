@@ -12,11 +12,11 @@
 namespace sspc::python {
 namespace {
 
-PointCloud make_cloud(const py::object& positions, const py::object& normals, const py::object& colors) {
+PointCloud make_cloud(const py::object& positions, const py::object& normals, const py::object& colours) {
   PointCloud cloud;
   cloud.positions = vec3_rows(positions, "positions");
   if (!normals.is_none()) cloud.normals = vec3_rows(normals, "normals");
-  if (!colors.is_none()) cloud.colors = rgb_rows(colors, "colors");
+  if (!colours.is_none()) cloud.colours = rgb_rows(colours, "colours");
   // validate() checks the lengths agree and every coordinate is finite (float64 values beyond
   // float32's range arrive here as infinities).
   check(cloud.validate());
@@ -26,7 +26,7 @@ PointCloud make_cloud(const py::object& positions, const py::object& normals, co
 std::string repr(const PointCloud& cloud) {
   std::string text = "<sspc.PointCloud " + std::to_string(cloud.size()) + " points";
   if (cloud.has_normals()) text += ", normals";
-  if (cloud.has_colors()) text += ", colors";
+  if (cloud.has_colours()) text += ", colours";
   return text + ">";
 }
 
@@ -68,17 +68,17 @@ void bind_point_cloud(py::module_& m) {
   py::class_<PointCloud>(m, "PointCloud", R"doc(
 A point cloud: float32 positions, optional unit normals, optional 8-bit RGB colours.
 
-PointCloud(positions, normals=None, colors=None)
+PointCloud(positions, normals=None, colours=None)
 
-positions and normals are (N, 3) arrays of any real dtype, converted to float32; colors is an
+positions and normals are (N, 3) arrays of any real dtype, converted to float32; colours is an
 (N, 3) array of integers in 0..255. Building one copies each array once into the library's
 layout. Raises TypeError for a wrong dtype and ValueError for a wrong shape, lengths that
 disagree or a coordinate that is not finite.
 
-The attributes .positions, .normals and .colors are read-only numpy views of the cloud's own
+The attributes .positions, .normals and .colours are read-only numpy views of the cloud's own
 memory (no copy), valid as long as any of them or the cloud is alive; copy one to modify it.)doc")
       .def(py::init(&make_cloud), py::arg("positions"), py::arg("normals") = py::none(),
-           py::arg("colors") = py::none())
+           py::arg("colours") = py::none())
       .def_property_readonly(
           "positions", [](py::object self) { return float_rows_view(self.cast<const PointCloud&>().positions, self); },
           "(N, 3) float32, read-only view of the cloud's memory.")
@@ -91,11 +91,11 @@ memory (no copy), valid as long as any of them or the cloud is alive; copy one t
           },
           "(N, 3) float32 unit normals, read-only view, or None when the cloud has none.")
       .def_property_readonly(
-          "colors",
+          "colours",
           [](py::object self) -> py::object {
             const auto& cloud = self.cast<const PointCloud&>();
-            if (!cloud.has_colors()) return py::none();
-            return rgb_rows_view(cloud.colors, self);
+            if (!cloud.has_colours()) return py::none();
+            return rgb_rows_view(cloud.colours, self);
           },
           "(N, 3) uint8 RGB, read-only view, or None when the cloud has none.")
       .def("__len__", &PointCloud::size, "The number of points.")

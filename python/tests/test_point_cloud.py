@@ -12,17 +12,17 @@ def test_build_from_float64_converts_to_float32():
     assert len(cloud) == 10
     assert cloud.positions.dtype == np.float32 and cloud.positions.shape == (10, 3)
     np.testing.assert_array_equal(cloud.positions, positions.astype(np.float32))
-    assert cloud.normals is None and cloud.colors is None
+    assert cloud.normals is None and cloud.colours is None
 
 
 def test_build_with_every_attribute_keeps_them():
     positions = np.random.default_rng(1).random((5, 3), dtype=np.float32)
     normals = np.tile(np.float32([0, 0, 1]), (5, 1))
-    colors = np.arange(15, dtype=np.int32).reshape(5, 3) * 10
-    cloud = sspc.PointCloud(positions, normals=normals, colors=colors)
+    colours = np.arange(15, dtype=np.int32).reshape(5, 3) * 10
+    cloud = sspc.PointCloud(positions, normals=normals, colours=colours)
     np.testing.assert_array_equal(cloud.normals, normals)
-    assert cloud.colors.dtype == np.uint8
-    np.testing.assert_array_equal(cloud.colors, colors)
+    assert cloud.colours.dtype == np.uint8
+    np.testing.assert_array_equal(cloud.colours, colours)
 
 
 @pytest.mark.parametrize("shape", [(10,), (10, 2), (10, 4), (2, 3, 3)])
@@ -34,15 +34,15 @@ def test_wrong_shape_is_a_value_error(shape):
 def test_wrong_dtype_is_a_type_error():
     with pytest.raises(TypeError, match="positions must be an array of real numbers"):
         sspc.PointCloud(np.zeros((4, 3), dtype=np.complex64))
-    with pytest.raises(TypeError, match="colors must be an array of integers"):
-        sspc.PointCloud(np.zeros((4, 3)), colors=np.zeros((4, 3), dtype=np.float32))
+    with pytest.raises(TypeError, match="colours must be an array of integers"):
+        sspc.PointCloud(np.zeros((4, 3)), colours=np.zeros((4, 3), dtype=np.float32))
 
 
 def test_lengths_colours_and_coordinates_are_checked():
     with pytest.raises(ValueError, match="normals"):
         sspc.PointCloud(np.zeros((4, 3)), normals=np.zeros((3, 3)))
     with pytest.raises(ValueError, match="0..255"):
-        sspc.PointCloud(np.zeros((2, 3)), colors=[[0, 0, 0], [0, 256, 0]])
+        sspc.PointCloud(np.zeros((2, 3)), colours=[[0, 0, 0], [0, 256, 0]])
     with pytest.raises(ValueError, match="point 1 has a non-finite coordinate"):
         sspc.PointCloud([[0, 0, 0], [np.nan, 0, 0]])
     with pytest.raises(ValueError, match="positions: row 1 holds 1e[+]300, beyond float32's range"):
@@ -72,15 +72,15 @@ def test_write_read_round_trip(tmp_path, ascii):
     rng = np.random.default_rng(7)
     positions = rng.normal(size=(200, 3)).astype(np.float32)
     normals = positions / np.linalg.norm(positions, axis=1, keepdims=True)
-    colors = rng.integers(0, 256, size=(200, 3))
-    cloud = sspc.PointCloud(positions, normals, colors)
+    colours = rng.integers(0, 256, size=(200, 3))
+    cloud = sspc.PointCloud(positions, normals, colours)
     path = tmp_path / "cloud.ply"
     sspc.write(cloud, path, ascii=ascii)
     assert path.read_bytes().startswith(b"ply\nformat " + (b"ascii" if ascii else b"binary_little_endian"))
     back = sspc.read(str(path))
     np.testing.assert_array_equal(back.positions, cloud.positions)
     np.testing.assert_array_equal(back.normals, cloud.normals)
-    np.testing.assert_array_equal(back.colors, cloud.colors)
+    np.testing.assert_array_equal(back.colours, cloud.colours)
 
 
 def test_read_errors_carry_the_library_message(tmp_path):

@@ -32,11 +32,11 @@ struct Patches {
 Patches gather_patches(const KdTree3& tree, std::span<const Vec3f> centres, float radius) {
   std::vector<std::vector<std::uint32_t>> rows(centres.size());
   parallel_for_ranges(0, centres.size(), 64, [&](std::size_t begin, std::size_t end) {
-    std::vector<Neighbor> near;
+    std::vector<Neighbour> near;
     for (std::size_t k = begin; k < end; ++k) {
       tree.radius(centres[k], radius, near, false);
       rows[k].reserve(near.size());
-      for (const Neighbor& nb : near) rows[k].push_back(nb.index);
+      for (const Neighbour& nb : near) rows[k].push_back(nb.index);
       std::sort(rows[k].begin(), rows[k].end());
     }
   });
@@ -100,19 +100,19 @@ PatchFrames describe_patches(const PointCloud& cloud, const Patches& patches, co
 
 // The code word taken from patch `rep`: its points in the frame with origin at the centre and
 // the canonical rotation.
-CodeWord make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> idx,
+Codeword make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> idx,
                        const RigidTransform& world_from_codeword) {
   const RigidTransform codeword_from_world = world_from_codeword.inverse();
-  CodeWord cw;
+  Codeword cw;
   cw.points.reserve(idx.size());
   for (std::uint32_t i : idx) cw.points.push_back(codeword_from_world.apply(cloud.positions[i]));
   if (cloud.has_normals()) {
     cw.normals.reserve(idx.size());
     for (std::uint32_t i : idx) cw.normals.push_back(codeword_from_world.apply_vector(cloud.normals[i]));
   }
-  if (cloud.has_colors()) {
-    cw.colors.reserve(idx.size());
-    for (std::uint32_t i : idx) cw.colors.push_back(cloud.colors[i]);
+  if (cloud.has_colours()) {
+    cw.colours.reserve(idx.size());
+    for (std::uint32_t i : idx) cw.colours.push_back(cloud.colours[i]);
   }
   return cw;
 }
@@ -173,12 +173,12 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
     }
     if (!covered) added.push_back(p);
   }
-  std::vector<Neighbor> near;
+  std::vector<Neighbour> near;
   std::vector<std::uint32_t> idx;
   for (const Vec3f& c : added) {
     points_tree.radius(c, o.patch_radius, near, false);
     idx.clear();
-    for (const Neighbor& nb : near) idx.push_back(nb.index);
+    for (const Neighbour& nb : near) idx.push_back(nb.index);
     std::sort(idx.begin(), idx.end());
     RigidTransform world_from_codeword;
     world_from_codeword.rotation = canonical_frame(cloud.positions, cloud.normals, idx).world_from_canonical.rotation;
@@ -210,7 +210,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   model.spacing = o.spacing;
   model.source_points = cloud.size();
   model.has_normals = cloud.has_normals();
-  model.has_colors = cloud.has_colors();
+  model.has_colours = cloud.has_colours();
   model.bounds = cloud.bounding_box();
   const std::size_t n = centres.size();
 
@@ -258,7 +258,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
   // quadratic (142 patches/s).
   constexpr std::size_t kMaxCandidates = 48;
   struct Speculation {
-    CodeWord codeword;
+    Codeword codeword;
     RigidTransform world_from_codeword;
     std::vector<std::uint32_t> candidates;
     std::vector<Match> matches;
@@ -288,12 +288,12 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       sp.world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
       sp.world_from_codeword.translation = centres[rep];
       sp.codeword = make_codeword(cloud, patches[rep], sp.world_from_codeword);
-      std::vector<L1Neighbor> near;
+      std::vector<L1Neighbour> near;
       sp.candidates.clear();
       if (pool.tree) {
         pool.tree->knn(std::span<const float>(frames.descriptors.data() + rep * dim, dim), kMaxCandidates, near);
       }
-      for (const L1Neighbor& nb : near) {
+      for (const L1Neighbour& nb : near) {
         const std::uint32_t k = pool.ids[nb.index];
         if (nb.distance > o.epsilon || k == rep || !eligible(k)) continue;
         // The match test keeps the region's point count within 10%; patches whose spheres'
@@ -359,7 +359,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
     stats->repaired = repaired;
     stats->mean_patch_points = n > 0 ? static_cast<double>(patches.indices.size()) / static_cast<double>(n) : 0.0;
     std::size_t points = 0;
-    for (const CodeWord& cw : model.codebook) points += cw.points.size();
+    for (const Codeword& cw : model.codebook) points += cw.points.size();
     stats->codeword_points = points;
   }
   return model;

@@ -11,7 +11,7 @@
 
 #include "encoder/descriptor.hpp"
 #include "format/encoded_model.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 

@@ -8,7 +8,7 @@
 
 #include <span>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 
 namespace sspc::codec {

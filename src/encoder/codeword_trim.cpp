@@ -5,9 +5,9 @@
 #include <vector>
 
 #include "core/parallel.hpp"
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 #include "format/region_decoder.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::codec {
 
@@ -20,13 +20,13 @@ struct DecodedPoints {
   float radius = 0;
 };
 
-DecodedPoints decode_positions(const CodeWord& w, float step, int bits) {
+DecodedPoints decode_positions(const Codeword& w, float step, int bits) {
   DecodedPoints d;
   float max_norm2 = 0;
   for (const Vec3f& p : w.points) {
     float xyz[3];
     for (int a = 0; a < 3; ++a) {
-      xyz[a] = dequantize_coordinate(quantize_coordinate(p[a], step, bits), step, bits);
+      xyz[a] = dequantise_coordinate(quantise_coordinate(p[a], step, bits), step, bits);
     }
     d.points.emplace_back(xyz[0], xyz[1], xyz[2]);
     d.norm2.push_back(xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2]);
@@ -44,20 +44,20 @@ EncodedModel without_codebook(const EncodedModel& model) {
   out.spacing = model.spacing;
   out.source_points = model.source_points;
   out.has_normals = model.has_normals;
-  out.has_colors = model.has_colors;
+  out.has_colours = model.has_colours;
   out.bounds = model.bounds;
   out.metadata = model.metadata;
   out.patches = model.patches;
   return out;
 }
 
-CodeWord merge_cells(const CodeWord& w, float step, int bits) {
+Codeword merge_cells(const Codeword& w, float step, int bits) {
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells;
   cells.reserve(w.points.size());
   for (std::uint32_t i = 0; i < w.points.size(); ++i) {
     const Vec3f& p = w.points[i];
-    const std::uint64_t x = quantize_coordinate(p.x(), step, bits), y = quantize_coordinate(p.y(), step, bits),
-                        z = quantize_coordinate(p.z(), step, bits);
+    const std::uint64_t x = quantise_coordinate(p.x(), step, bits), y = quantise_coordinate(p.y(), step, bits),
+                        z = quantise_coordinate(p.z(), step, bits);
     cells.emplace_back(x << 32 | y << 16 | z, i);
   }
   // By cell, then by index: each run starts with the cell's first point; the output keeps the
@@ -71,7 +71,7 @@ CodeWord merge_cells(const CodeWord& w, float step, int bits) {
     b = e;
   }
   std::sort(runs.begin(), runs.end());
-  CodeWord out;
+  Codeword out;
   for (const auto& [first, range] : runs) {
     out.points.push_back(w.points[first]);
     if (!w.normals.empty()) {
@@ -79,17 +79,17 @@ CodeWord merge_cells(const CodeWord& w, float step, int bits) {
       for (std::size_t k = range.first; k < range.second; ++k) sum += w.normals[cells[k].second];
       out.normals.push_back(sum.norm() > 1e-6f ? Vec3f(sum.normalized()) : w.normals[first]);
     }
-    if (!w.colors.empty()) {
+    if (!w.colours.empty()) {
       std::array<std::uint32_t, 3> sum{0, 0, 0};
       for (std::size_t k = range.first; k < range.second; ++k) {
-        const Rgb8& c = w.colors[cells[k].second];
+        const Rgb8& c = w.colours[cells[k].second];
         sum[0] += c.r;
         sum[1] += c.g;
         sum[2] += c.b;
       }
       const auto n = static_cast<std::uint32_t>(range.second - range.first);
       const auto mean = [n](std::uint32_t s) { return static_cast<std::uint8_t>((s + n / 2) / n); };
-      out.colors.push_back(Rgb8{mean(sum[0]), mean(sum[1]), mean(sum[2])});
+      out.colours.push_back(Rgb8{mean(sum[0]), mean(sum[1]), mean(sum[2])});
     }
   }
   return out;
@@ -113,10 +113,10 @@ void express_in_decoded_frames(EncodedModel& model, const ContainerHeader& h) {
     decoded.rotation = decode_rotation(encode_rotation(exact.rotation, h.rotation_bits), h.rotation_bits);
     std::array<std::int32_t, 3> grid{};
     // Off the grid the writer refuses the patch block later; leave the code word as it is.
-    if (!quantize_translation(exact.translation, h.bounds_min, h.translation_step, grid)) return;
-    decoded.translation = dequantize_translation(grid, h.bounds_min, h.translation_step);
+    if (!quantise_translation(exact.translation, h.bounds_min, h.translation_step, grid)) return;
+    decoded.translation = dequantise_translation(grid, h.bounds_min, h.translation_step);
     moved[c] = decoded.inverse() * exact;
-    CodeWord& w = model.codebook[c];
+    Codeword& w = model.codebook[c];
     for (Vec3f& q : w.points) q = moved[c].apply(q);
     for (Vec3f& n : w.normals) n = moved[c].apply_vector(n);
   });
@@ -143,8 +143,8 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
     std::array<std::int32_t, 3> grid{};
     // Off the grid, the writer refuses the patch block (encode_patch_block) after trimming;
     // until then the centre stays where the encoder put it.
-    centre[k] = quantize_translation(t.translation, h.bounds_min, h.translation_step, grid)
-                    ? dequantize_translation(grid, h.bounds_min, h.translation_step)
+    centre[k] = quantise_translation(t.translation, h.bounds_min, h.translation_step, grid)
+                    ? dequantise_translation(grid, h.bounds_min, h.translation_step)
                     : t.translation;
   });
   const float step = position_step(h.patch_radius, h.position_bits);
@@ -165,14 +165,14 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
     std::vector<bool>& keep = claimed[c];
     keep.assign(d.points.size(), false);
     RegionTest region;
-    std::vector<Neighbor> near;
-    std::vector<Neighbour> neighbours;
+    std::vector<Neighbour> near;
+    std::vector<NeighbourInstance> neighbours;
     const float threshold2 = neighbour_threshold2(d.radius);
     for (const std::uint32_t k : instances[c]) {
       // A slightly larger query, then the reader's exact test, so that N_k is exactly its N_k.
       centre_tree.radius(centre[k], 1.001f * std::sqrt(threshold2), near, false);
       neighbours.clear();
-      for (const Neighbor& nb : near) {
+      for (const Neighbour& nb : near) {
         if (nb.index != k && centre_distance2(centre[nb.index], centre[k]) <= threshold2) {
           neighbours.push_back({nb.index, centre[nb.index]});
         }
@@ -188,13 +188,13 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
   out.codebook.resize(model.codebook.size());
   std::uint64_t before = 0, after = 0;
   for (std::size_t c = 0; c < model.codebook.size(); ++c) {
-    const CodeWord& w = model.codebook[c];
-    CodeWord& t = out.codebook[c];
+    const Codeword& w = model.codebook[c];
+    Codeword& t = out.codebook[c];
     for (std::size_t i = 0; i < w.points.size(); ++i) {
       if (!claimed[c][i]) continue;
       t.points.push_back(w.points[i]);
       if (i < w.normals.size()) t.normals.push_back(w.normals[i]);
-      if (i < w.colors.size()) t.colors.push_back(w.colors[i]);
+      if (i < w.colours.size()) t.colours.push_back(w.colours[i]);
     }
     before += w.points.size();
     after += t.points.size();

@@ -20,7 +20,7 @@
 #include "format/block_codec.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -138,14 +138,14 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
     return invalid_argument("the model's bounds are not finite");
   }
   for (std::size_t c = 0; c < model.codebook.size(); ++c) {
-    const CodeWord& w = model.codebook[c];
+    const Codeword& w = model.codebook[c];
     const std::string where = "code word " + std::to_string(c);
     if (model.has_normals && w.normals.size() != w.points.size()) {
       return invalid_argument(where + " has " + std::to_string(w.normals.size()) + " normals for " +
                               std::to_string(w.points.size()) + " points");
     }
-    if (model.has_colors && w.colors.size() != w.points.size()) {
-      return invalid_argument(where + " has " + std::to_string(w.colors.size()) + " colours for " +
+    if (model.has_colours && w.colours.size() != w.points.size()) {
+      return invalid_argument(where + " has " + std::to_string(w.colours.size()) + " colours for " +
                               std::to_string(w.points.size()) + " points");
     }
     if (w.points.size() > std::numeric_limits<std::uint32_t>::max() / 16) {
@@ -212,7 +212,7 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   const bool metadata = source.metadata.present();
   const bool duplicates_flag = options.keep_duplicates && h.version >= 3;
   h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
-                                       (source.has_colors ? kFlagColors : 0) |
+                                       (source.has_colours ? kFlagColours : 0) |
                                        (metadata ? kFlagMetadata : 0) |
                                        (duplicates_flag ? kFlagDuplicates : 0));
   h.patch_radius = source.patch_radius;
@@ -249,7 +249,7 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     if (stats != nullptr) stats->untrimmed_codeword_points = trim.points_before;
   }
   const EncodedModel& model = options.trim_unclaimed ? trimmed : working;
-  for (const CodeWord& w : model.codebook) h.codeword_point_count += w.points.size();
+  for (const Codeword& w : model.codebook) h.codeword_point_count += w.points.size();
 
   // Code-book blocks.
   const auto cw_blocks =
@@ -260,12 +260,12 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     const std::size_t first = b * h.codewords_per_block;
     const std::size_t count =
         std::min<std::size_t>(h.codewords_per_block, h.codeword_count - first);
-    const std::span<const CodeWord> words(model.codebook.data() + first, count);
+    const std::span<const Codeword> words(model.codebook.data() + first, count);
     const std::string raw = encode_codeword_block(words, h);
     block.entry.first = static_cast<std::uint32_t>(first);
     block.entry.count = static_cast<std::uint32_t>(count);
     std::size_t points = 0;
-    for (const CodeWord& w : words) points += w.points.size();
+    for (const Codeword& w : words) points += w.points.size();
     if (points > std::numeric_limits<std::uint32_t>::max()) {
       block.status = invalid_argument("a code-book block holds more than 2^32 − 1 points");
       return;

@@ -12,7 +12,7 @@
 #include "encoder/model_builder.hpp"
 #include "encoder/patch_centres.hpp"
 #include "format/container_format.hpp"
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 
 namespace sspc {
 
@@ -98,7 +98,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;
   // The transforms' grids follow the code words' grid: a rotation error at the patch radius
-  // below half its step (the worst case measured in QuantizeTest is about 3.7·R / 2^bits, so
+  // below half its step (the worst case measured in QuantiseTest is about 3.7·R / 2^bits, so
   // two bits more than the positions), and translations on half its step.
   quant.rotation_bits = std::clamp(quant.position_bits + 2, codec::kMinRotationBits, codec::kMaxRotationBits);
   // The translation grid must span the model in |v| < 2^24 steps.

@@ -7,14 +7,14 @@
 
 #include "core/parallel.hpp"
 #include "core/stopwatch.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::codec {
 
 void number_codewords_by_first_use(EncodedModel& model) {
   constexpr std::uint32_t kUnused = 0xFFFFFFFFu;
   std::vector<std::uint32_t> new_index(model.codebook.size(), kUnused);
-  std::vector<CodeWord> codebook;
+  std::vector<Codeword> codebook;
   codebook.reserve(model.codebook.size());
   for (PatchInstance& p : model.patches) {
     std::uint32_t& to = new_index[p.codeword];
@@ -36,7 +36,7 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
   for (int round = 0; round < 2; ++round) {
     const auto r = static_cast<float>(radius);
     const double total = deterministic_sum<double>(0, samples, [&](std::size_t s) {
-      std::vector<Neighbor> near;
+      std::vector<Neighbour> near;
       tree.radius(cloud.positions[s * stride], r, near, false);
       return static_cast<double>(near.size());
     }, 64);

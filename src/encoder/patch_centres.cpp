@@ -84,12 +84,12 @@ void repulse(std::vector<Vec3f>& centres, float radius, const PointCloud& cloud,
   const KdTree3 centre_tree(centres);
   std::vector<Vec3f> moved(centres.size());
   parallel_for_ranges(0, centres.size(), 256, [&](std::size_t begin, std::size_t end) {
-    std::vector<Neighbor> near;
+    std::vector<Neighbour> near;
     for (std::size_t k = begin; k < end; ++k) {
       const Vec3f c = centres[k];
       centre_tree.radius(c, radius, near);
       Vec3f push = Vec3f::Zero();
-      for (const Neighbor& nb : near) {
+      for (const Neighbour& nb : near) {
         if (nb.index == k) continue;
         const float d = std::sqrt(nb.distance_squared);
         if (d <= 0) continue;
@@ -128,12 +128,12 @@ void attract(std::vector<Vec3f>& centres, float radius, const PointCloud& cloud,
              const std::vector<float>& strength) {
   std::vector<Vec3f> moved(centres.size());
   parallel_for_ranges(0, centres.size(), 64, [&](std::size_t begin, std::size_t end) {
-    std::vector<Neighbor> near;
+    std::vector<Neighbour> near;
     for (std::size_t k = begin; k < end; ++k) {
       tree.radius(centres[k], radius, near);
       Vec3d sum = Vec3d::Zero();
       double weight = 0;
-      for (const Neighbor& nb : near) {
+      for (const Neighbour& nb : near) {
         sum += static_cast<double>(strength[nb.index]) * cloud.positions[nb.index].cast<double>();
         weight += static_cast<double>(strength[nb.index]);
       }

@@ -21,7 +21,7 @@
 #include "encoder/codebook_builder.hpp"
 #include "encoder/codeword_surface.hpp"
 #include "geometry/rigid_transform.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 
 namespace sspc::codec {

@@ -16,7 +16,7 @@
 #include "eval/normal_angle.hpp"
 #include "eval/normal_transfer.hpp"
 #include "sspc/metrics.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc {
 

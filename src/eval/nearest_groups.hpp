@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "geometry/distinct_positions.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 

@@ -14,7 +14,7 @@
 #include "core/varint.hpp"
 #include "format/block_codec_v1.hpp"
 #include "format/column_coder.hpp"
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 #include "format/range_coder.hpp"
 
 namespace sspc::codec {
@@ -63,7 +63,7 @@ std::uint8_t byte_at(std::span<const std::byte> s, std::size_t i) {
 }  // namespace
 
 std::size_t bytes_per_codeword_point(const ContainerHeader& header) {
-  return std::size_t{6} + (header.has_normals() ? 4u : 0u) + (header.has_colors() ? 3u : 0u);
+  return std::size_t{6} + (header.has_normals() ? 4u : 0u) + (header.has_colours() ? 3u : 0u);
 }
 
 namespace {
@@ -219,32 +219,32 @@ namespace {
 struct AttributeWriter {
   const ContainerHeader& header;
   std::vector<std::uint32_t> normals;
-  std::string colors[3];
+  std::string colours[3];
 
-  void add(const CodeWord& c, std::size_t i) {
+  void add(const Codeword& c, std::size_t i) {
     if (header.has_normals()) {
       const Vec3f n = i < c.normals.size() ? c.normals[i] : Vec3f::UnitZ();
       const auto uv = encode_normal(n, header.normal_bits);
       normals.push_back(uv[0]);
       normals.push_back(uv[1]);
     }
-    if (header.has_colors()) {
-      const Rgb8 rgb = i < c.colors.size() ? c.colors[i] : Rgb8{};
-      colors[0].push_back(static_cast<char>(rgb.r));
-      colors[1].push_back(static_cast<char>(rgb.g));
-      colors[2].push_back(static_cast<char>(rgb.b));
+    if (header.has_colours()) {
+      const Rgb8 rgb = i < c.colours.size() ? c.colours[i] : Rgb8{};
+      colours[0].push_back(static_cast<char>(rgb.r));
+      colours[1].push_back(static_cast<char>(rgb.g));
+      colours[2].push_back(static_cast<char>(rgb.b));
     }
   }
   void append_to(std::string& out) const {
     if (header.has_normals()) put_planes(out, normals);
-    if (header.has_colors()) out += colors[0] + colors[1] + colors[2];
+    if (header.has_colours()) out += colours[0] + colours[1] + colours[2];
   }
 };
 
 // Version 3: each code word's points by the columns (format/column_coder.hpp), in their order.
 // Without the duplicates flag a grid point keeps its first point's attributes (the writer has
 // merged them already, encoder/codeword_trim.hpp).
-std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const ContainerHeader& header) {
+std::string encode_codeword_block_v3(std::span<const Codeword> codewords, const ContainerHeader& header) {
   const float step = position_step(header.patch_radius, header.position_bits);
   const int bits = header.position_bits;
   std::string stream;
@@ -253,11 +253,11 @@ std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const 
   AttributeWriter attributes{header, {}, {}};
   std::vector<std::array<std::uint32_t, 3>> grid, sorted, coded;
   std::vector<std::uint32_t> kept;
-  for (const CodeWord& c : codewords) {
+  for (const Codeword& c : codewords) {
     grid.clear();
     for (const Vec3f& p : c.points) {
-      grid.push_back({quantize_coordinate(p.x(), step, bits), quantize_coordinate(p.y(), step, bits),
-                      quantize_coordinate(p.z(), step, bits)});
+      grid.push_back({quantise_coordinate(p.x(), step, bits), quantise_coordinate(p.y(), step, bits),
+                      quantise_coordinate(p.z(), step, bits)});
     }
     kept.clear();
     sorted.clear();
@@ -284,11 +284,11 @@ std::string encode_codeword_block_v3(std::span<const CodeWord> codewords, const 
 
 }  // namespace
 
-std::string encode_codeword_block(std::span<const CodeWord> codewords,
+std::string encode_codeword_block(std::span<const Codeword> codewords,
                                   const ContainerHeader& header) {
   if (header.version >= 3) return encode_codeword_block_v3(codewords, header);
   std::string out;
-  for (const CodeWord& c : codewords) append_varint(out, c.points.size());
+  for (const Codeword& c : codewords) append_varint(out, c.points.size());
   const float step = position_step(header.patch_radius, header.position_bits);
   const int bits = header.position_bits;
   std::string stream;
@@ -297,16 +297,16 @@ std::string encode_codeword_block(std::span<const CodeWord> codewords,
   PositionModels models;
   AttributeWriter attributes{header, {}, {}};
   std::vector<std::array<std::uint32_t, 3>> grid, sorted;
-  for (const CodeWord& c : codewords) {
+  for (const Codeword& c : codewords) {
     grid.clear();
     for (const Vec3f& p : c.points) {
-      grid.push_back({quantize_coordinate(p.x(), step, bits), quantize_coordinate(p.y(), step, bits),
-                      quantize_coordinate(p.z(), step, bits)});
+      grid.push_back({quantise_coordinate(p.x(), step, bits), quantise_coordinate(p.y(), step, bits),
+                      quantise_coordinate(p.z(), step, bits)});
     }
     const std::vector<std::uint32_t> order = raster_order(grid);
     sorted.clear();
     for (std::uint32_t i : order) sorted.push_back(grid[i]);
-    // The writer's own grid values lie within 2^bits (quantize_coordinate clamps), so its walk
+    // The writer's own grid values lie within 2^bits (quantise_coordinate clamps), so its walk
     // cannot leave the grid.
     const bool walked = walk_codeword(io, models, sorted, bits);
     SSPC_DCHECK(walked);
@@ -332,7 +332,7 @@ StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
   std::array<std::vector<std::uint32_t>, 3> deltas;
   for (const PatchInstance& p : patches) {
     std::array<std::int32_t, 3> v{};
-    if (!quantize_translation(p.world_from_codeword.translation, header.bounds_min,
+    if (!quantise_translation(p.world_from_codeword.translation, header.bounds_min,
                               header.translation_step, v)) {
       return invalid_argument(
           "a patch translation lies more than 2^24 translation steps from "
@@ -389,7 +389,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
                                                 " points, the seek table says " +
                                                 std::to_string(n));
   }
-  std::span<const std::byte> pos_bytes, normal_bytes, color_bytes;
+  std::span<const std::byte> pos_bytes, normal_bytes, colour_bytes;
   const auto take = [&reader](std::size_t bytes, std::span<const std::byte>& taken) {
     auto span = reader.read_bytes(bytes);
     if (!span.ok()) return false;
@@ -402,7 +402,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
   }
   if (stream_size > raw.size() || !take(static_cast<std::size_t>(stream_size), pos_bytes) ||
       (header.has_normals() && !take(4 * n, normal_bytes)) ||
-      (header.has_colors() && !take(3 * n, color_bytes))) {
+      (header.has_colours() && !take(3 * n, colour_bytes))) {
     return payload_error(reader.position(), "payload ends inside the point data");
   }
   if (!reader.at_end()) {
@@ -417,7 +417,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
   out.norm2.resize(n);
   const auto set_point = [&](std::size_t i, const std::array<std::uint32_t, 3>& v) {
     float xyz[3];
-    for (std::size_t a = 0; a < 3; ++a) xyz[a] = dequantize_coordinate(v[a], step, pbits);
+    for (std::size_t a = 0; a < 3; ++a) xyz[a] = dequantise_coordinate(v[a], step, pbits);
     out.points[i] = Vec3f(xyz[0], xyz[1], xyz[2]);
     out.norm2[i] = xyz[0] * xyz[0] + xyz[1] * xyz[1] + xyz[2] * xyz[2];
   };
@@ -475,14 +475,14 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
   } else {
     out.normals.clear();
   }
-  if (header.has_colors()) {
-    out.colors.resize(n);
+  if (header.has_colours()) {
+    out.colours.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      out.colors[i] = Rgb8{byte_at(color_bytes, i), byte_at(color_bytes, n + i),
-                           byte_at(color_bytes, 2 * n + i)};
+      out.colours[i] = Rgb8{byte_at(colour_bytes, i), byte_at(colour_bytes, n + i),
+                           byte_at(colour_bytes, 2 * n + i)};
     }
   } else {
-    out.colors.clear();
+    out.colours.clear();
   }
   out.radius.resize(entry.count);
   for (std::uint32_t c = 0; c < entry.count; ++c) {
@@ -555,7 +555,7 @@ Status decode_patch_block(std::span<const std::byte> raw, const BlockEntry& entr
       }
       grid[a] = static_cast<std::int32_t>(v[a]);
     }
-    out.centre[k] = dequantize_translation(grid, header.bounds_min, header.translation_step);
+    out.centre[k] = dequantise_translation(grid, header.bounds_min, header.translation_step);
     if (check_box && !entry.box.contains(out.centre[k])) {
       return payload_error(reader.position(),
                            "patch " + std::to_string(entry.first + k) +

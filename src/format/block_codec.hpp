@@ -25,7 +25,7 @@ struct DecodedCodewords {
   std::vector<Vec3f> points;           // in each code word's frame
   std::vector<float> norm2;            // |point|², as the region test uses it
   std::vector<Vec3f> normals;          // empty without normals
-  std::vector<Rgb8> colors;            // empty without colours
+  std::vector<Rgb8> colours;            // empty without colours
   std::vector<float> radius;           // per code word: sqrt(max norm2), 0 when empty
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(radius.size()); }
@@ -53,7 +53,7 @@ std::size_t bytes_per_codeword_point(const ContainerHeader& header);
 // bound a reader checks before it allocates anything for them).
 bool codeword_points_fit(const ContainerHeader& header, std::uint64_t points, std::uint64_t raw_size);
 
-std::string encode_codeword_block(std::span<const CodeWord> codewords,
+std::string encode_codeword_block(std::span<const Codeword> codewords,
                                   const ContainerHeader& header);
 // Fails (kInvalidArgument) when a translation falls off the i32 grid of |v| < 2^24.
 StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,

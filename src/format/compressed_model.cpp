@@ -109,7 +109,7 @@ struct CompressedModel::Impl {
   std::uint32_t codewords_per_block() const { return reader.header().codewords_per_block; }
 
   Status decode_one(BlockSource& src, std::size_t k, bool overlap, const Box3f* clip,
-                    std::vector<codec::Neighbour>& neighbours, PointCloud& out) const;
+                    std::vector<codec::NeighbourInstance>& neighbours, PointCloud& out) const;
 };
 
 namespace {
@@ -132,14 +132,14 @@ class PreloadedSource final : public BlockSource {
 void append(PointCloud& dst, const PointCloud& src) {
   dst.positions.insert(dst.positions.end(), src.positions.begin(), src.positions.end());
   dst.normals.insert(dst.normals.end(), src.normals.begin(), src.normals.end());
-  dst.colors.insert(dst.colors.end(), src.colors.begin(), src.colors.end());
+  dst.colours.insert(dst.colours.end(), src.colours.begin(), src.colours.end());
 }
 
 }  // namespace
 
 Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool overlap,
                                          const Box3f* clip,
-                                         std::vector<codec::Neighbour>& neighbours,
+                                         std::vector<codec::NeighbourInstance>& neighbours,
                                          PointCloud& out) const {
   std::shared_ptr<const DecodedPatches> own;
   SSPC_RETURN_IF_ERROR(src.patches(k / patches_per_block(), own));
@@ -159,7 +159,7 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
   view.points = words->points.data() + begin;
   view.norm2 = words->norm2.data() + begin;
   view.normals = words->normals.empty() ? nullptr : words->normals.data() + begin;
-  view.colors = words->colors.empty() ? nullptr : words->colors.data() + begin;
+  view.colours = words->colours.empty() ? nullptr : words->colours.data() + begin;
   view.size = end - begin;
 
   neighbours.clear();
@@ -231,7 +231,7 @@ StatusOr<PatchRecord> CompressedModel::patch(std::size_t k) const {
   return r;
 }
 
-StatusOr<CodeWordData> CompressedModel::codeword(std::size_t c) const {
+StatusOr<CodewordData> CompressedModel::codeword(std::size_t c) const {
   if (c >= codeword_count()) {
     return invalid_argument("code word " + std::to_string(c) + " out of range (the model has " +
                             std::to_string(codeword_count()) + ")");
@@ -243,14 +243,14 @@ StatusOr<CodeWordData> CompressedModel::codeword(std::size_t c) const {
   const std::size_t w = c - block->first;
   const auto begin = static_cast<std::ptrdiff_t>(block->offsets[w]);
   const auto end = static_cast<std::ptrdiff_t>(block->offsets[w + 1]);
-  CodeWordData out;
+  CodewordData out;
   out.radius = block->radius[w];
   out.points.positions.assign(block->points.begin() + begin, block->points.begin() + end);
   if (!block->normals.empty()) {
     out.points.normals.assign(block->normals.begin() + begin, block->normals.begin() + end);
   }
-  if (!block->colors.empty()) {
-    out.points.colors.assign(block->colors.begin() + begin, block->colors.begin() + end);
+  if (!block->colours.empty()) {
+    out.points.colours.assign(block->colours.begin() + begin, block->colours.begin() + end);
   }
   return out;
 }
@@ -274,7 +274,7 @@ StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
   }
   CachedSource src = impl_->cached();
   PointCloud out;
-  thread_local std::vector<codec::Neighbour> neighbours;
+  thread_local std::vector<codec::NeighbourInstance> neighbours;
   SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options.overlap, nullptr, neighbours, out));
   if (options.patch_of != nullptr) options.patch_of->assign(out.size(), static_cast<std::uint32_t>(k));
   return placed(std::move(out));
@@ -299,7 +299,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
 
   progress_begin(options.progress, "decoding box", blocks.size(), "blocks");
   CachedSource src = impl_->cached();
-  std::vector<codec::Neighbour> neighbours;
+  std::vector<codec::NeighbourInstance> neighbours;
   for (std::size_t b : blocks) {
     std::shared_ptr<const DecodedPatches> block;
     SSPC_RETURN_IF_ERROR(src.patches(b, block));
@@ -343,7 +343,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
   std::vector<Status> part_status(p_blocks);
   parallel_for(0, p_blocks, 1, [&](std::size_t b) {
     PreloadedSource& shared = src;  // read-only from here on
-    std::vector<codec::Neighbour> neighbours;
+    std::vector<codec::NeighbourInstance> neighbours;
     const DecodedPatches& block = *shared.patch_blocks[b];
     for (std::uint32_t i = 0; i < block.count(); ++i) {
       Status s = impl_->decode_one(shared, block.first + i, options.overlap, nullptr, neighbours,
@@ -362,7 +362,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
   std::size_t total = 0;
   for (const PointCloud& p : parts) total += p.size();
   PointCloud out;
-  out.reserve(total, reader.header().has_normals(), reader.header().has_colors());
+  out.reserve(total, reader.header().has_normals(), reader.header().has_colours());
   for (PointCloud& p : parts) {
     append(out, p);
     p = PointCloud();
@@ -404,7 +404,7 @@ ModelInfo CompressedModel::info() const {
   ModelInfo m;
   m.version = h.version;
   m.has_normals = h.has_normals();
-  m.has_colors = h.has_colors();
+  m.has_colours = h.has_colours();
   m.patch_radius = h.patch_radius;
   m.coverage_radius = h.coverage_radius;
   m.spacing = h.spacing;

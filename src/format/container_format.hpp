@@ -19,12 +19,12 @@ inline constexpr std::uint16_t kFormatVersion = 3;
 inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;
-inline constexpr std::uint16_t kFlagColors = 1u << 1;
+inline constexpr std::uint16_t kFlagColours = 1u << 1;
 inline constexpr std::uint16_t kFlagMetadata = 1u << 2;  // the metadata part follows section 4
 // Version 3 and later: code words store each occupied cell's point count (sspc encode
 // --keep-duplicates); without it a cell holds one point.
 inline constexpr std::uint16_t kFlagDuplicates = 1u << 3;
-inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColors | kFlagMetadata | kFlagDuplicates;
+inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColours | kFlagMetadata | kFlagDuplicates;
 
 inline constexpr std::size_t kHeaderSize = 196;
 inline constexpr std::size_t kHeaderCrcOffset = 192;
@@ -97,7 +97,7 @@ struct ContainerHeader {
   std::array<SectionEntry, kSectionCount> sections{};
 
   bool has_normals() const { return (flags & kFlagNormals) != 0; }
-  bool has_colors() const { return (flags & kFlagColors) != 0; }
+  bool has_colours() const { return (flags & kFlagColours) != 0; }
   bool has_duplicates() const { return (flags & kFlagDuplicates) != 0; }
   bool has_metadata() const { return (flags & kFlagMetadata) != 0; }
 };

@@ -23,10 +23,10 @@
 
 namespace sspc::codec {
 
-struct CodeWord {
+struct Codeword {
   std::vector<Vec3f> points;   // in the code word's frame, all within patch_radius of 0
   std::vector<Vec3f> normals;  // unit, same length as points, or empty when the model has none
-  std::vector<Rgb8> colors;    // same length as points, or empty
+  std::vector<Rgb8> colours;    // same length as points, or empty
 };
 
 struct PatchInstance {
@@ -45,9 +45,9 @@ struct EncodedModel {
   float spacing = 0;          // the input's nominal point spacing
   std::uint64_t source_points = 0;
   bool has_normals = false;
-  bool has_colors = false;
+  bool has_colours = false;
   Box3f bounds;               // of the input points
-  std::vector<CodeWord> codebook;
+  std::vector<Codeword> codebook;
   std::vector<PatchInstance> patches;  // in file order (the encoder sorts them spatially)
   ModelMetadata metadata;  // the origin of every position above, comments, CRS, LAS grid
 };

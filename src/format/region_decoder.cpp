@@ -21,10 +21,10 @@ Vec3f rotate(const Eigen::Matrix3f& r, const Vec3f& v) {
 }  // namespace
 
 void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
-                       std::span<const Neighbour> neighbours) {
+                       std::span<const NeighbourInstance> neighbours) {
   k_ = k;
   frame_.clear();
-  for (const Neighbour& n : neighbours) {
+  for (const NeighbourInstance& n : neighbours) {
     const float dx = n.centre.x() - centre.x(), dy = n.centre.y() - centre.y(),
                 dz = n.centre.z() - centre.z();
     // Rᵀ d: column a of R dotted with d.
@@ -58,12 +58,12 @@ bool RegionTest::claims(const Vec3f& q, float norm2) const {
 }
 
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
-                const CodewordView& cw, std::span<const Neighbour> neighbours, bool overlap,
+                const CodewordView& cw, std::span<const NeighbourInstance> neighbours, bool overlap,
                 const Box3f* clip, PointCloud& out) {
   thread_local RegionTest region;
   if (!overlap) region.reset(k, rotation, centre, neighbours);
   const bool normals = cw.normals != nullptr;
-  const bool colors = cw.colors != nullptr;
+  const bool colours = cw.colours != nullptr;
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
     if (!overlap && !region.claims(q, cw.norm2[i])) continue;
@@ -71,7 +71,7 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
     if (clip != nullptr && !clip->contains(p)) continue;
     out.positions.push_back(p);
     if (normals) out.normals.push_back(rotate(rotation, cw.normals[i]));
-    if (colors) out.colors.push_back(cw.colors[i]);
+    if (colours) out.colours.push_back(cw.colours[i]);
   }
 }
 

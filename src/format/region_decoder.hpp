@@ -18,7 +18,7 @@
 
 namespace sspc::codec {
 
-struct Neighbour {
+struct NeighbourInstance {
   std::uint32_t index = 0;
   Vec3f centre;
 };
@@ -38,7 +38,7 @@ struct CodewordView {
   const Vec3f* points = nullptr;
   const float* norm2 = nullptr;
   const Vec3f* normals = nullptr;
-  const Rgb8* colors = nullptr;
+  const Rgb8* colours = nullptr;
   std::size_t size = 0;
 };
 
@@ -48,7 +48,7 @@ class RegionTest {
  public:
   // `neighbours` must be exactly N_k (any order).
   void reset(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rotation, const Vec3f& centre,
-             std::span<const Neighbour> neighbours);
+             std::span<const NeighbourInstance> neighbours);
   // Whether k keeps code-word point q (with norm2 = |q|² as the decoder computes it).
   bool claims(const Vec3f& q, float norm2) const;
 
@@ -67,7 +67,7 @@ class RegionTest {
 // the code word has them.
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rotation,
                 const Vec3f& centre, const CodewordView& codeword,
-                std::span<const Neighbour> neighbours, bool overlap, const Box3f* clip,
+                std::span<const NeighbourInstance> neighbours, bool overlap, const Box3f* clip,
                 PointCloud& out);
 
 }  // namespace sspc::codec

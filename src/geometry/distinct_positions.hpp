@@ -13,7 +13,7 @@
 #include <span>
 #include <vector>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 

@@ -15,7 +15,7 @@
 #include "core/parallel.hpp"
 #include "geometry/distinct_positions.hpp"
 #include "geometry/knn_result_set.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc {
 
@@ -41,7 +41,7 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<fl
 // applies the exact test, the same one a brute-force scan makes.
 class InclusiveRadiusResultSet {
  public:
-  InclusiveRadiusResultSet(float radius_squared, std::vector<Neighbor>& out)
+  InclusiveRadiusResultSet(float radius_squared, std::vector<Neighbour>& out)
       : radius_squared_(radius_squared),
         search_bound_(std::nextafter(radius_squared + radius_squared * 1e-5f,
                                      std::numeric_limits<float>::infinity())),
@@ -57,10 +57,10 @@ class InclusiveRadiusResultSet {
  private:
   float radius_squared_;
   float search_bound_;
-  std::vector<Neighbor>& out_;
+  std::vector<Neighbour>& out_;
 };
 
-bool neighbor_before(const Neighbor& a, const Neighbor& b) {
+bool neighbour_before(const Neighbour& a, const Neighbour& b) {
   return a.distance_squared < b.distance_squared ||
          (a.distance_squared == b.distance_squared && a.index < b.index);
 }
@@ -90,7 +90,7 @@ std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::uint32_t* indic
   return result.size();
 }
 
-std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::vector<Neighbor>& out) const {
+std::size_t KdTree3::knn(const Vec3f& query, std::size_t k, std::vector<Neighbour>& out) const {
   out.clear();
   if (k == 0 || points_.empty()) return 0;
   k = std::min(k, points_.size());
@@ -110,14 +110,14 @@ std::uint32_t KdTree3::nearest(const Vec3f& query, float* distance_squared) cons
   return index;
 }
 
-std::size_t KdTree3::radius(const Vec3f& query, float r, std::vector<Neighbor>& out,
+std::size_t KdTree3::radius(const Vec3f& query, float r, std::vector<Neighbour>& out,
                             bool sorted) const {
   out.clear();
   if (points_.empty() || !(r >= 0)) return 0;
   InclusiveRadiusResultSet result(r * r, out);
   impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
   // Sorted by distance, then index, so that results are reproducible.
-  if (sorted) std::sort(out.begin(), out.end(), neighbor_before);
+  if (sorted) std::sort(out.begin(), out.end(), neighbour_before);
   return out.size();
 }
 

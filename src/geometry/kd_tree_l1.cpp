@@ -12,7 +12,7 @@
 #include <nanoflann.hpp>
 
 #include "geometry/knn_result_set.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc {
 
@@ -58,7 +58,7 @@ using L1Tree = nanoflann::KDTreeSingleIndexAdaptor<L1Metric, RowsAdaptor, -1, st
 // cell bounds, summed in another order, can round a few ulps above the exact distance.
 class L1RadiusResultSet {
  public:
-  L1RadiusResultSet(float radius, std::vector<L1Neighbor>& out)
+  L1RadiusResultSet(float radius, std::vector<L1Neighbour>& out)
       : radius_(radius),
         search_bound_(
             std::nextafter(radius + radius * 1e-4f, std::numeric_limits<float>::infinity())),
@@ -74,7 +74,7 @@ class L1RadiusResultSet {
  private:
   float radius_;
   float search_bound_;
-  std::vector<L1Neighbor>& out_;
+  std::vector<L1Neighbour>& out_;
 };
 
 }  // namespace
@@ -100,19 +100,19 @@ KdTreeL1::KdTreeL1(KdTreeL1&&) noexcept = default;
 KdTreeL1& KdTreeL1::operator=(KdTreeL1&&) noexcept = default;
 
 std::size_t KdTreeL1::radius(std::span<const float> query, float r,
-                             std::vector<L1Neighbor>& out) const {
+                             std::vector<L1Neighbour>& out) const {
   out.clear();
   if (rows_ == 0 || !(r >= 0) || query.size() < dimension_) return 0;
   L1RadiusResultSet result(r, out);
   impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
-  std::sort(out.begin(), out.end(), [](const L1Neighbor& a, const L1Neighbor& b) {
+  std::sort(out.begin(), out.end(), [](const L1Neighbour& a, const L1Neighbour& b) {
     return a.distance < b.distance || (a.distance == b.distance && a.index < b.index);
   });
   return out.size();
 }
 
 std::size_t KdTreeL1::knn(std::span<const float> query, std::size_t k,
-                          std::vector<L1Neighbor>& out) const {
+                          std::vector<L1Neighbour>& out) const {
   out.clear();
   if (rows_ == 0 || k == 0 || query.size() < dimension_) return 0;
   k = std::min(k, rows_);

@@ -8,7 +8,7 @@
 
 #include "geometry/distinct_positions.hpp"
 #include "geometry/normals_steps.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc {
 

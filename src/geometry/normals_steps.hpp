@@ -4,7 +4,7 @@
 
 #include <span>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 

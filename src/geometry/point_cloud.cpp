@@ -5,10 +5,10 @@
 
 namespace sspc {
 
-void PointCloud::reserve(std::size_t n, bool with_normals, bool with_colors) {
+void PointCloud::reserve(std::size_t n, bool with_normals, bool with_colours) {
   positions.reserve(n);
   if (with_normals) normals.reserve(n);
-  if (with_colors) colors.reserve(n);
+  if (with_colours) colours.reserve(n);
 }
 
 Box3f PointCloud::bounding_box() const {
@@ -87,9 +87,9 @@ Status PointCloud::validate() const {
     return invalid_argument("point cloud has " + std::to_string(positions.size()) +
                             " positions but " + std::to_string(normals.size()) + " normals");
   }
-  if (!colors.empty() && colors.size() != positions.size()) {
+  if (!colours.empty() && colours.size() != positions.size()) {
     return invalid_argument("point cloud has " + std::to_string(positions.size()) +
-                            " positions but " + std::to_string(colors.size()) + " colours");
+                            " positions but " + std::to_string(colours.size()) + " colours");
   }
   for (std::size_t i = 0; i < positions.size(); ++i) {
     if (!positions[i].allFinite()) {

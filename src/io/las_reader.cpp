@@ -216,10 +216,10 @@ void set_colours(PointCloud& cloud) {
   if (rgb.empty()) return;
   bool wide = false;
   for (const auto& c : rgb) wide = wide || std::max({c[0], c[1], c[2]}) > 255;
-  cloud.colors.resize(rgb.size());
+  cloud.colours.resize(rgb.size());
   const unsigned shift = wide ? 8 : 0;
   for (std::size_t i = 0; i < rgb.size(); ++i) {
-    cloud.colors[i] = Rgb8{static_cast<std::uint8_t>(rgb[i][0] >> shift),
+    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(rgb[i][0] >> shift),
                            static_cast<std::uint8_t>(rgb[i][1] >> shift),
                            static_cast<std::uint8_t>(rgb[i][2] >> shift)};
   }

@@ -95,7 +95,7 @@ StatusOr<LasEncoder> LasEncoder::make(const PointCloud& cloud, const LasWriteOpt
 void LasEncoder::choose_format(const LasWriteOptions& options) {
   const PointCloud& c = *cloud_;
   const LasPointAttributes& a = c.las;
-  const bool rgb = !a.rgb.empty() || c.has_colors();
+  const bool rgb = !a.rgb.empty() || c.has_colours();
   const bool gps = !a.gps_time.empty();
   const bool nir = !a.nir.empty();
   const auto above = [](const std::vector<std::uint8_t>& v, unsigned limit) {
@@ -294,9 +294,9 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
     std::array<std::uint16_t, 3> rgb{};
     if (!a.rgb.empty()) {
       rgb = a.rgb[i];
-    } else if (c.has_colors()) {
+    } else if (c.has_colours()) {
       // 8 bits to 16 by repeating the byte: 255 becomes 65535 (§2.6, "normalised to 16 bits").
-      const Rgb8 v = c.colors[i];
+      const Rgb8 v = c.colours[i];
       rgb = {static_cast<std::uint16_t>(v.r * 257), static_cast<std::uint16_t>(v.g * 257),
              static_cast<std::uint16_t>(v.b * 257)};
     }

@@ -32,7 +32,7 @@ namespace {
 struct PcdLayout {
   std::size_t position[3] = {};
   std::optional<std::size_t> normal[3];
-  std::optional<std::size_t> color;
+  std::optional<std::size_t> colour;
   bool normals = false;
   bool positions_wider_than_float = false;  // x, y or z is not F 4
 };
@@ -64,13 +64,13 @@ StatusOr<PcdLayout> make_pcd_layout(const PcdHeader& header, std::string_view na
   if (layout.normals) {
     for (int k = 0; k < 3; ++k) SSPC_RETURN_IF_ERROR(single(*layout.normal[k]));
   }
-  layout.color = header.find("rgb");
-  if (!layout.color) layout.color = header.find("rgba");
-  if (layout.color) {
-    SSPC_RETURN_IF_ERROR(single(*layout.color));
-    if (header.fields[*layout.color].bytes() != 4) {
+  layout.colour = header.find("rgb");
+  if (!layout.colour) layout.colour = header.find("rgba");
+  if (layout.colour) {
+    SSPC_RETURN_IF_ERROR(single(*layout.colour));
+    if (header.fields[*layout.colour].bytes() != 4) {
       return error_at_line(StatusCode::kUnsupported, name, header.data_line,
-                           "field " + quote_token(header.fields[*layout.color].name) +
+                           "field " + quote_token(header.fields[*layout.colour].name) +
                                " is not 4 bytes (a packed 0xAARRGGBB colour)");
     }
   }
@@ -121,13 +121,13 @@ class PcdReader {
                                " bytes of the body can hold");
     }
     const auto n = static_cast<std::size_t>(header_.points);
-    cloud.reserve(n, layout_.normals, layout_.color.has_value());
+    cloud.reserve(n, layout_.normals, layout_.colour.has_value());
     std::vector<int> role(header_.fields.size(), -1);  // 0..2 position, 3..5 normal, 6 colour
     for (int k = 0; k < 3; ++k) {
       role[layout_.position[k]] = k;
       if (layout_.normals) role[*layout_.normal[k]] = 3 + k;
     }
-    if (layout_.color) role[*layout_.color] = 6;
+    if (layout_.colour) role[*layout_.colour] = 6;
 
     std::string_view line;
     for (std::size_t i = 0; i < n; ++i) {
@@ -143,7 +143,7 @@ class PcdReader {
       std::string_view tok;
       float v[6] = {};
       Vec3d stored = Vec3d::Zero();  // the position at the file's precision
-      Rgb8 color;
+      Rgb8 colour;
       for (std::size_t f = 0; f < header_.fields.size(); ++f) {
         const PcdField& field = header_.fields[f];
         for (std::size_t c = 0; c < field.count; ++c) {
@@ -153,7 +153,7 @@ class PcdReader {
           }
           if (role[f] < 0) continue;
           double wide = 0;
-          const bool ok = role[f] == 6 ? parse_packed_color(tok, field.type, color)
+          const bool ok = role[f] == 6 ? parse_packed_color(tok, field.type, colour)
                                        : parse_coordinate(tok, field.type, v[role[f]], wide);
           if (role[f] < 3) stored[role[f]] = wide;
           if (!ok) {
@@ -168,7 +168,7 @@ class PcdReader {
       }
       cloud.positions.emplace_back(v[0], v[1], v[2]);
       if (layout_.normals) cloud.normals.emplace_back(v[3], v[4], v[5]);
-      if (layout_.color) cloud.colors.push_back(color);
+      if (layout_.colour) cloud.colours.push_back(colour);
       if (!cloud.positions.back().allFinite() ||
           (layout_.normals && !cloud.normals.back().allFinite())) {
         return non_finite_error(name_, cloud, i, "line " + std::to_string(lines.line_number()));
@@ -234,14 +234,14 @@ class PcdReader {
     }
     cloud.positions.resize(n);
     if (layout_.normals) cloud.normals.resize(n);
-    if (layout_.color) cloud.colors.resize(n);
+    if (layout_.colour) cloud.colours.resize(n);
     const std::size_t grain = std::max<std::size_t>(1, (std::size_t{1} << 19) / header_.point_size);
     parallel_for_ranges(0, n, grain, [&](std::size_t b, std::size_t e) {
       decode_vec3(block, pos, Endian::kLittle, b, e, cloud.positions.data());
       if (layout_.normals) decode_vec3(block, nrm, Endian::kLittle, b, e, cloud.normals.data());
-      if (layout_.color) {
-        decode_packed_rgb(block, fields[*layout_.color], Endian::kLittle, b, e,
-                          cloud.colors.data());
+      if (layout_.colour) {
+        decode_packed_rgb(block, fields[*layout_.colour], Endian::kLittle, b, e,
+                          cloud.colours.data());
       }
     });
     if (wide_->wanted()) wide_->add_block(block, pos, Endian::kLittle, cloud.positions);

@@ -83,7 +83,7 @@ class AsciiBodyReader {
                                " items, more than the " + std::to_string(left) +
                                " bytes of the body can hold");
     }
-    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colors);
+    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colours);
     return Status();
   }
 
@@ -139,11 +139,11 @@ class AsciiBodyReader {
     const auto f = [&](PlySlot s) { return narrow_to_float(v_[s]); };
     cloud.positions.emplace_back(f(kX), f(kY), f(kZ));
     if (layout_.normals) cloud.normals.emplace_back(f(kNx), f(kNy), f(kNz));
-    if (layout_.colors) {
+    if (layout_.colours) {
       const auto channel = [&](PlySlot s) {
-        return color_channel(v_[s], vertex.properties[*layout_.property[s]].type);
+        return colour_channel(v_[s], vertex.properties[*layout_.property[s]].type);
       };
-      cloud.colors.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
+      cloud.colours.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
     }
     const std::size_t idx = cloud.size() - 1;
     if (!cloud.positions[idx].allFinite() || (layout_.normals && !cloud.normals[idx].allFinite())) {

@@ -164,11 +164,11 @@ class BinaryBodyReader {
     StridedField pos[3], nrm[3], col[3];
     fields(kX, offsets, stride, pos);
     if (layout_.normals) fields(kNx, offsets, stride, nrm);
-    if (layout_.colors) fields(kRed, offsets, stride, col);
+    if (layout_.colours) fields(kRed, offsets, stride, col);
 
     cloud.positions.resize(n);
     if (layout_.normals) cloud.normals.resize(n);
-    if (layout_.colors) cloud.colors.resize(n);
+    if (layout_.colours) cloud.colours.resize(n);
     const std::byte* block = reader_.current();
     const std::size_t block_offset = reader_.offset();
     // Chunks of a few hundred kilobytes: large enough to amortise scheduling, small enough for
@@ -177,7 +177,7 @@ class BinaryBodyReader {
     parallel_for_ranges(0, n, grain, [&](std::size_t b, std::size_t e) {
       decode_vec3(block, pos, endian_, b, e, cloud.positions.data());
       if (layout_.normals) decode_vec3(block, nrm, endian_, b, e, cloud.normals.data());
-      if (layout_.colors) decode_rgb_channels(block, col, endian_, b, e, cloud.colors.data());
+      if (layout_.colours) decode_rgb_channels(block, col, endian_, b, e, cloud.colours.data());
       progress_advance(progress_, (e - b) * stride);
     });
     SSPC_RETURN_IF_ERROR(reader_.skip(n * stride));
@@ -194,7 +194,7 @@ class BinaryBodyReader {
   // lists to vertices). Sequential; each item is bounds-checked as it is read.
   Status read_variable_vertices(const PlyElement& vertex, PointCloud& cloud) {
     SSPC_RETURN_IF_ERROR(check_count_fits(vertex, min_item_size(vertex)));
-    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colors);
+    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colours);
     const std::size_t start = reader_.offset();
     for (std::uint64_t i = 0; i < vertex.count; ++i) {
       const std::size_t item_offset = reader_.offset();
@@ -221,11 +221,11 @@ class BinaryBodyReader {
         cloud.normals.emplace_back(narrow_to_float(v[kNx]), narrow_to_float(v[kNy]),
                                    narrow_to_float(v[kNz]));
       }
-      if (layout_.colors) {
+      if (layout_.colours) {
         const auto channel = [&](PlySlot s) {
-          return color_channel(v[s], vertex.properties[*layout_.property[s]].type);
+          return colour_channel(v[s], vertex.properties[*layout_.property[s]].type);
         };
-        cloud.colors.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
+        cloud.colours.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
       }
       const std::size_t idx = cloud.size() - 1;
       if (!cloud.positions[idx].allFinite() ||

@@ -60,9 +60,9 @@ StatusOr<PlyVertexLayout> make_ply_vertex_layout(const PlyHeader& header, std::s
     }
   }
   layout.normals = layout.property[kNx] && layout.property[kNy] && layout.property[kNz];
-  layout.colors = layout.property[kRed] && layout.property[kGreen] && layout.property[kBlue];
+  layout.colours = layout.property[kRed] && layout.property[kGreen] && layout.property[kBlue];
   if (!layout.normals) layout.property[kNx] = layout.property[kNy] = layout.property[kNz] = {};
-  if (!layout.colors) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = {};
+  if (!layout.colours) layout.property[kRed] = layout.property[kGreen] = layout.property[kBlue] = {};
 
   layout.slot.assign(vertex.properties.size(), kSkipProperty);
   for (std::size_t s = 0; s < kSlotCount; ++s) {

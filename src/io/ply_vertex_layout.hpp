@@ -25,7 +25,7 @@ struct PlyVertexLayout {
   // For each vertex property, the slot it feeds or kSkipProperty.
   std::vector<int> slot;
   bool normals = false;
-  bool colors = false;
+  bool colours = false;
 };
 
 // Finds the `vertex` element and maps its properties: x y z are required; nx ny nz (or

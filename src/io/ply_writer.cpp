@@ -60,9 +60,9 @@ std::string one_line(const std::string& text) {
 PlyEncoder::PlyEncoder(const PointCloud& cloud, const PlyWriteOptions& options)
     : cloud_(cloud), options_(options) {
   normals_ = options.write_normals && cloud.has_normals() && cloud.normals.size() == cloud.size();
-  colors_ = options.write_colors && cloud.has_colors() && cloud.colors.size() == cloud.size();
+  colours_ = options.write_colours && cloud.has_colours() && cloud.colours.size() == cloud.size();
   doubles_ = cloud.origin != Vec3d::Zero();
-  stride_ = (doubles_ ? 24u : 12u) + (normals_ ? 12u : 0u) + (colors_ ? 3u : 0u);
+  stride_ = (doubles_ ? 24u : 12u) + (normals_ ? 12u : 0u) + (colours_ ? 3u : 0u);
 }
 
 std::string PlyEncoder::header() const {
@@ -85,7 +85,7 @@ std::string PlyEncoder::header() const {
     h += "property float x\nproperty float y\nproperty float z\n";
   }
   if (normals_) h += "property float nx\nproperty float ny\nproperty float nz\n";
-  if (colors_) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (colours_) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   h += "end_header\n";
   return h;
 }
@@ -121,8 +121,8 @@ void PlyEncoder::append_binary(std::size_t begin, std::size_t end, std::string& 
           store_float(rec + 4 * static_cast<std::size_t>(k), cloud_.normals[i][k], endian);
         rec += 12;
       }
-      if (colors_) {
-        const Rgb8 c = cloud_.colors[i];
+      if (colours_) {
+        const Rgb8 c = cloud_.colours[i];
         rec[0] = std::byte{c.r};
         rec[1] = std::byte{c.g};
         rec[2] = std::byte{c.b};
@@ -151,8 +151,8 @@ void PlyEncoder::append_ascii(std::size_t begin, std::size_t end, std::string& o
         append_float(out, cloud_.normals[i][k]);
       }
     }
-    if (colors_) {
-      const Rgb8 c = cloud_.colors[i];
+    if (colours_) {
+      const Rgb8 c = cloud_.colours[i];
       for (unsigned v : {unsigned{c.r}, unsigned{c.g}, unsigned{c.b}}) {
         out += ' ';
         append_uint(out, v);

@@ -32,7 +32,7 @@ class PlyEncoder {
   const PointCloud& cloud_;
   const PlyWriteOptions& options_;
   bool normals_ = false;
-  bool colors_ = false;
+  bool colours_ = false;
   bool doubles_ = false;  // positions as double world coordinates (the cloud has an origin)
   std::size_t stride_ = 0;  // bytes per binary record
 };

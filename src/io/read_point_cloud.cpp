@@ -53,7 +53,7 @@ StatusOr<PointCloud> read_with(PointCloudFormat format, std::span<const std::byt
     case PointCloudFormat::kPcd: return io::read_pcd_with_options(bytes, name, options);
     case PointCloudFormat::kLas: return io::read_las_with_options(bytes, name, options);
     case PointCloudFormat::kXyzRgb:
-      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kColors);
+      return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kColours);
     case PointCloudFormat::kXyzN:
       return io::read_xyz_columns(bytes, name, options, io::XyzSixColumns::kNormals);
     case PointCloudFormat::kXyz:

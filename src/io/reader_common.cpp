@@ -75,7 +75,7 @@ Status finish_cloud(const PointCloud& cloud, std::string_view name) {
   if (cloud.empty())
     return error_in(StatusCode::kInvalidArgument, name, "the file holds no points");
   if ((cloud.has_normals() && cloud.normals.size() != cloud.size()) ||
-      (cloud.has_colors() && cloud.colors.size() != cloud.size())) {
+      (cloud.has_colours() && cloud.colours.size() != cloud.size())) {
     return error_in(StatusCode::kInternal, name,
                     "reader produced attribute arrays of the wrong length");
   }

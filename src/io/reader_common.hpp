@@ -55,7 +55,7 @@ StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std:
 
 // What the six columns of an XYZ file hold: guessed from the values (.xyz), or named by the
 // extension (.xyzrgb, .xyzn).
-enum class XyzSixColumns { kGuess, kColors, kNormals };
+enum class XyzSixColumns { kGuess, kColours, kNormals };
 StatusOr<PointCloud> read_xyz_columns(std::span<const std::byte> data, std::string_view name,
                                       const ReadOptions& options, XyzSixColumns six);
 

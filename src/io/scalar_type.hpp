@@ -115,7 +115,7 @@ inline std::optional<std::uint64_t> load_count(const std::byte* p, ScalarType t,
 // A colour channel from a stored value. The rule every common tool follows: 8-bit integers are
 // the channel itself, 16-bit integers are scaled down (65535 -> 255), floats are in [0, 1];
 // anything outside the range is clamped rather than wrapped.
-inline std::uint8_t color_channel(double v, ScalarType t) {
+inline std::uint8_t colour_channel(double v, ScalarType t) {
   double scaled = v;
   if (scalar_is_float(t)) {
     scaled = v * 255.0;

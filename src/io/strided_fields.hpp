@@ -46,7 +46,7 @@ inline void decode_vec3(const std::byte* block, const StridedField (&f)[3], Endi
 }
 
 // Three colour channels (red green blue) for points [begin, end), each converted by
-// color_channel() unless it is already a byte.
+// colour_channel() unless it is already a byte.
 inline void decode_rgb_channels(const std::byte* block, const StridedField (&f)[3], Endian endian,
                                 std::size_t begin, std::size_t end, Rgb8* out) {
   std::uint8_t c[3];
@@ -55,7 +55,7 @@ inline void decode_rgb_channels(const std::byte* block, const StridedField (&f)[
       const std::byte* p = block + f[k].offset + i * f[k].stride;
       c[k] = f[k].type == ScalarType::kUint8
                  ? std::to_integer<std::uint8_t>(*p)
-                 : color_channel(load_as_double(p, f[k].type, endian), f[k].type);
+                 : colour_channel(load_as_double(p, f[k].type, endian), f[k].type);
     }
     out[i] = Rgb8{c[0], c[1], c[2]};
   }

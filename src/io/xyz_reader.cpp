@@ -113,7 +113,7 @@ class XyzReader {
                            "the file declares " + std::to_string(*declared) + " points but holds " +
                                std::to_string(cloud_.size()));
     }
-    if (columns_ == XyzColumns::kXyzNormalsOrRgb) SSPC_RETURN_IF_ERROR(six_columns_to_colors());
+    if (columns_ == XyzColumns::kXyzNormalsOrRgb) SSPC_RETURN_IF_ERROR(six_columns_to_colours());
     progress_advance(progress_, bom_ + text_.size() - reported_);
     SSPC_RETURN_IF_ERROR(finish_cloud(cloud_, name_));
     wide_.finish(cloud_);
@@ -145,9 +145,9 @@ class XyzReader {
     if (declared) bound = std::min<std::size_t>(bound, static_cast<std::size_t>(*declared));
     const bool normals =
         *columns_ == XyzColumns::kXyzNormalsOrRgb || *columns_ == XyzColumns::kXyzNormalsRgb;
-    const bool colors =
+    const bool colours =
         *columns_ == XyzColumns::kXyzIRgb || *columns_ == XyzColumns::kXyzNormalsRgb;
-    cloud_.reserve(bound, normals, colors);
+    cloud_.reserve(bound, normals, colours);
   }
 
   Status not_a_number(std::size_t column, std::string_view what, std::string_view tok) const {
@@ -165,7 +165,7 @@ class XyzReader {
     return Status();
   }
 
-  Status parse_colors(const std::array<std::string_view, 10>& tok, std::size_t first) {
+  Status parse_colours(const std::array<std::string_view, 10>& tok, std::size_t first) {
     std::uint8_t c[3];
     for (std::size_t k = 0; k < 3; ++k) {
       if (!parse_color_token(tok[first + k], c[k])) {
@@ -173,7 +173,7 @@ class XyzReader {
                      quote_token(tok[first + k]) + " is not an integer from 0 to 255");
       }
     }
-    cloud_.colors.push_back(Rgb8{c[0], c[1], c[2]});
+    cloud_.colours.push_back(Rgb8{c[0], c[1], c[2]});
     return Status();
   }
 
@@ -210,19 +210,19 @@ class XyzReader {
         for (std::size_t k = 3; k < 6; ++k) {
           std::uint8_t c = 0;
           if (!parse_color_token(tok[k], c)) {
-            colors_possible_ = false;
+            colours_possible_ = false;
           } else if (c > 1) {
             above_one_ = true;
           }
         }
         break;
       }
-      case XyzColumns::kXyzIRgb: SSPC_RETURN_IF_ERROR(parse_colors(tok, 4)); break;
+      case XyzColumns::kXyzIRgb: SSPC_RETURN_IF_ERROR(parse_colours(tok, 4)); break;
       case XyzColumns::kXyzNormalsRgb: {
         Vec3f v;
         SSPC_RETURN_IF_ERROR(parse_floats(tok, 3, v, "normal"));
         cloud_.normals.push_back(v);
-        SSPC_RETURN_IF_ERROR(parse_colors(tok, 6));
+        SSPC_RETURN_IF_ERROR(parse_colours(tok, 6));
         break;
       }
     }
@@ -232,7 +232,7 @@ class XyzReader {
     if (!cloud_.positions[i].allFinite() || (check_normal && !cloud_.normals[i].allFinite())) {
       return non_finite_error(name_, cloud_, i, "line " + std::to_string(lines_.line_number()));
     }
-    if (*columns_ == XyzColumns::kXyzNormalsOrRgb && !colors_possible_ &&
+    if (*columns_ == XyzColumns::kXyzNormalsOrRgb && !colours_possible_ &&
         !cloud_.normals[i].allFinite()) {
       return non_finite_error(name_, cloud_, i, "line " + std::to_string(lines_.line_number()));
     }
@@ -240,16 +240,16 @@ class XyzReader {
   }
 
   // The six-column rule of the file comment, applied once the whole file has been seen.
-  Status six_columns_to_colors() {
+  Status six_columns_to_colours() {
     if (six_ == XyzSixColumns::kNormals) return Status();
-    if (six_ == XyzSixColumns::kColors && !(colors_possible_ && above_one_)) {
-      return unit_colors();
+    if (six_ == XyzSixColumns::kColours && !(colours_possible_ && above_one_)) {
+      return unit_colours();
     }
-    if (!colors_possible_ || !above_one_) return Status();
-    cloud_.colors.resize(cloud_.size());
+    if (!colours_possible_ || !above_one_) return Status();
+    cloud_.colours.resize(cloud_.size());
     for (std::size_t i = 0; i < cloud_.size(); ++i) {
       const Vec3f& v = cloud_.normals[i];
-      cloud_.colors[i] = Rgb8{static_cast<std::uint8_t>(v.x()), static_cast<std::uint8_t>(v.y()),
+      cloud_.colours[i] = Rgb8{static_cast<std::uint8_t>(v.x()), static_cast<std::uint8_t>(v.y()),
                               static_cast<std::uint8_t>(v.z())};
     }
     cloud_.normals = {};
@@ -257,8 +257,8 @@ class XyzReader {
   }
 
   // Open3D's colours: reals from 0 to 1.
-  Status unit_colors() {
-    cloud_.colors.resize(cloud_.size());
+  Status unit_colours() {
+    cloud_.colours.resize(cloud_.size());
     for (std::size_t i = 0; i < cloud_.size(); ++i) {
       const Vec3f& v = cloud_.normals[i];
       if (!((v.array() >= 0).all() && (v.array() <= 1).all())) {
@@ -268,7 +268,7 @@ class XyzReader {
                             "reals from 0 to 1, and this one is neither");
       }
       const Vec3f c = (v * 255.0f).array().round();
-      cloud_.colors[i] = Rgb8{static_cast<std::uint8_t>(c.x()), static_cast<std::uint8_t>(c.y()),
+      cloud_.colours[i] = Rgb8{static_cast<std::uint8_t>(c.x()), static_cast<std::uint8_t>(c.y()),
                               static_cast<std::uint8_t>(c.z())};
     }
     cloud_.normals = {};
@@ -293,7 +293,7 @@ class XyzReader {
   std::optional<XyzColumns> columns_;
   std::size_t column_count_ = 0;
   std::size_t first_line_ = 0;
-  bool colors_possible_ = true;  // six columns: every trailing value so far an integer 0..255
+  bool colours_possible_ = true;  // six columns: every trailing value so far an integer 0..255
   bool above_one_ = false;       // six columns: some trailing value above 1
   std::size_t bom_;
   std::size_t reported_ = 0;

@@ -21,7 +21,7 @@
 #include "core/stopwatch.hpp"
 #include "render/brick_scene.hpp"
 #include "render/shading.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/render.hpp"
 

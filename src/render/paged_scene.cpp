@@ -20,7 +20,7 @@
 
 #include "render/brick_scene.hpp"
 #include "render/shading.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/render.hpp"
 
 namespace sspc {

@@ -11,7 +11,7 @@
 #include "render/camera.hpp"
 #include "render/mls_surface.hpp"
 #include "render/shading.hpp"
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/render.hpp"
 
 namespace sspc {

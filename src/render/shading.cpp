@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::render {
 

@@ -18,16 +18,16 @@ namespace sspc {
 namespace {
 
 bool same_cloud(const PointCloud& a, const PointCloud& b) {
-  return a.positions == b.positions && a.normals == b.normals && a.colors == b.colors;
+  return a.positions == b.positions && a.normals == b.normals && a.colours == b.colours;
 }
 
 // A few-KB file with normals and colours, so that every section and payload plane is present.
 std::string encode_small_file() {
   test::TempDir dir;
   PointCloud cloud = synthetic::bumps(600, 1.0, 2, 0.1);
-  cloud.colors.resize(cloud.size());
+  cloud.colours.resize(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    cloud.colors[i] = Rgb8{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(3 * i), 9};
+    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(3 * i), 9};
   }
   EncodeOptions options;
   options.level = 9;
@@ -53,7 +53,7 @@ StatusOr<PointCloud> open_and_decode(const std::string& bytes) {
     SSPC_ASSIGN_OR_RETURN(PointCloud part, model->decode_patch(k));
     joined.positions.insert(joined.positions.end(), part.positions.begin(), part.positions.end());
     joined.normals.insert(joined.normals.end(), part.normals.begin(), part.normals.end());
-    joined.colors.insert(joined.colors.end(), part.colors.begin(), part.colors.end());
+    joined.colours.insert(joined.colours.end(), part.colours.begin(), part.colours.end());
   }
   EXPECT_TRUE(same_cloud(joined, *all));
   return all;
@@ -65,7 +65,7 @@ TEST(CorruptionTest, EveryCorruptedByteIsReportedOrHarmless) {
   ASSERT_LT(bytes.size(), 8000u);
   const StatusOr<PointCloud> original = open_and_decode(bytes);
   ASSERT_TRUE(original.ok()) << original.status().to_string();
-  ASSERT_TRUE(original->has_normals() && original->has_colors());
+  ASSERT_TRUE(original->has_normals() && original->has_colours());
 
   int reported = 0, harmless = 0;
   for (const int change : {0xFF, 1}) {

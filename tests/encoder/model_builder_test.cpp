@@ -16,7 +16,7 @@ namespace {
 PointCloud expand_overlapping(const EncodedModel& model) {
   PointCloud out;
   for (const PatchInstance& patch : model.patches) {
-    const CodeWord& cw = model.codebook[patch.codeword];
+    const Codeword& cw = model.codebook[patch.codeword];
     for (const Vec3f& p : cw.points) out.positions.push_back(patch.world_from_codeword.apply(p));
   }
   return out;
@@ -48,7 +48,7 @@ BuildOptions options_for_level(int level) {
   return options;
 }
 
-TEST(ModelBuilder, SelfSimilarBumpsShareFewCodeWords) {
+TEST(ModelBuilder, SelfSimilarBumpsShareFewCodewords) {
   const PointCloud cloud = tiled_bumps(36, 25);
   BuildStats stats;
   // The paper's regime: 64-point patches, whose copies lie within ICP's reach, and τ = 0.4

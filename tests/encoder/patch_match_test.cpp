@@ -119,14 +119,14 @@ Surface with_hole(float hole_radius) {
   return kept;
 }
 
-TEST(PatchMatch, AHoleInTheCodeWordRejectsIt) {
+TEST(PatchMatch, AHoleInTheCodewordRejectsIt) {
   // A hole of 3 spacings leaves about 1 patch point (0.2%) beyond 2.5 spacings; 5.5 leave ~28 (5%).
   EXPECT_TRUE(match(with_hole(3.0f * kSpacing), 3.0f).accepted);
   EXPECT_FALSE(match(with_hole(5.5f * kSpacing), 3.0f).accepted);
 }
 
 // Code-word points past the patch's edge (where the scan has none) are holes the other way.
-TEST(PatchMatch, CodeWordPointsOffTheScannedSurfaceRejectIt) {
+TEST(PatchMatch, CodewordPointsOffTheScannedSurfaceRejectIt) {
   auto with_flap = [](float height) {
     Surface s = height_field();
     const std::size_t n = s.points.size();
@@ -145,7 +145,7 @@ TEST(PatchMatch, CodeWordPointsOffTheScannedSurfaceRejectIt) {
 }
 
 // The code word must decode about as many points as the patch has: within 10% either way.
-TEST(PatchMatch, TheCodeWordsDensityMustBeWithinTenPercent) {
+TEST(PatchMatch, TheCodewordsDensityMustBeWithinTenPercent) {
   // The region (coverage radius 0.7) holds about 615 patch points.
   Surface denser = height_field();
   add_copies(denser, 40);  // +6.5%

@@ -96,7 +96,7 @@ bool decode_all(const std::string& stream, std::size_t words, int bits, bool dup
   return rc.finish();
 }
 
-TEST(ColumnCoder, RoundTripsSurfacesLayersAndEmptyCodeWords) {
+TEST(ColumnCoder, RoundTripsSurfacesLayersAndEmptyCodewords) {
   for (const int bits : {4, 6, 9}) {
     SCOPED_TRACE(bits);
     const std::vector<Points> words = {surface(bits, 1, false), {}, surface(bits, 2, true), scattered(bits, 3),

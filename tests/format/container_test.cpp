@@ -15,7 +15,7 @@
 #include "encoder/container_writer.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 #include "geometry/rigid_transform.hpp"
 #include "sspc/compressed_model.hpp"
 #include "test_util.hpp"
@@ -47,7 +47,7 @@ std::string encode_or_die(const EncodedModel& m, const QuantOptions& o = {}) {
 }
 
 bool same_cloud(const PointCloud& a, const PointCloud& b) {
-  return a.positions == b.positions && a.normals == b.normals && a.colors == b.colors;
+  return a.positions == b.positions && a.normals == b.normals && a.colours == b.colours;
 }
 
 void store_u32(std::string& s, std::size_t at, std::uint32_t v) {
@@ -71,7 +71,7 @@ TEST(ContainerTest, RoundTripWithinQuantisationError) {
   for (std::size_t c = 0; c < m.codebook.size(); ++c) {
     auto w = model->codeword(c);
     ASSERT_TRUE(w.ok()) << w.status().to_string();
-    const CodeWord& src = m.codebook[c];
+    const Codeword& src = m.codebook[c];
     ASSERT_EQ(w->points.size(), src.points.size());
     // Version 2 stores a code word's points in raster order: pair each decoded point with
     // its source point, each used once.
@@ -90,7 +90,7 @@ TEST(ContainerTest, RoundTripWithinQuantisationError) {
       used[j] = true;
       EXPECT_LE(best, step * 0.5001f);
       EXPECT_GT(w->points.normals[i].dot(src.normals[j]), std::cos(0.2f * 3.14159f / 180));
-      EXPECT_EQ(w->points.colors[i], src.colors[j]);
+      EXPECT_EQ(w->points.colours[i], src.colours[j]);
       EXPECT_LE(w->points.positions[i].norm(), w->radius);
     }
   }
@@ -120,14 +120,14 @@ TEST(ContainerTest, RoundTripWithinQuantisationError) {
 TEST(ContainerTest, WithoutNormalsOrColours) {
   test::ModelShape s = small_shape();
   s.normals = false;
-  s.colors = false;
+  s.colours = false;
   const EncodedModel m = test::make_plane_model(s);
   auto model = CompressedModel::from_bytes(encode_or_die(m, small_blocks()));
   ASSERT_TRUE(model.ok()) << model.status().to_string();
   auto all = model->decode_all();
   ASSERT_TRUE(all.ok());
   EXPECT_FALSE(all->has_normals());
-  EXPECT_FALSE(all->has_colors());
+  EXPECT_FALSE(all->has_colours());
   EXPECT_TRUE(all->validate().ok());
 }
 
@@ -188,7 +188,7 @@ TEST(ContainerTest, AFileThatShrinksWhileOpenGivesAClearError) {
   const StatusOr<PointCloud> last = model->decode_patch(model->patch_count() - 1);
   ASSERT_FALSE(last.ok());
   EXPECT_EQ(last.status().message(), expected);
-  const StatusOr<CodeWordData> word = model->codeword(model->codeword_count() - 1);
+  const StatusOr<CodewordData> word = model->codeword(model->codeword_count() - 1);
   ASSERT_FALSE(word.ok());
   EXPECT_EQ(word.status().message(), expected);
   EXPECT_EQ(model->verify().message(), expected);

@@ -38,7 +38,7 @@ struct ModelShape {
   float centre_step = 3.0f;  // distance between neighbouring patch centres
   int codewords = 5;
   bool normals = true;
-  bool colors = true;
+  bool colours = true;
   bool full_rotations = false;  // random 3D rotations instead of rotations about the normal
   std::uint32_t seed = 7;
 };
@@ -54,12 +54,12 @@ inline codec::EncodedModel make_plane_model(const ModelShape& s) {
   m.spacing = 1.0f;
   m.source_points = static_cast<std::uint64_t>(s.side) * static_cast<std::uint64_t>(s.side);
   m.has_normals = s.normals;
-  m.has_colors = s.colors;
+  m.has_colours = s.colours;
   const float extent = static_cast<float>(s.side - 1);
   m.bounds = Box3f(Vec3f(0, 0, -0.1f), Vec3f(extent, extent, 0.1f));
   const int reach = static_cast<int>(std::ceil(s.patch_radius));
   for (int c = 0; c < s.codewords; ++c) {
-    codec::CodeWord w;
+    codec::Codeword w;
     for (int y = -reach; y <= reach; ++y) {
       for (int x = -reach; x <= reach; ++x) {
         const Vec3f p(static_cast<float>(x) + rng.range(-0.3f, 0.3f),
@@ -70,8 +70,8 @@ inline codec::EncodedModel make_plane_model(const ModelShape& s) {
           w.normals.push_back(
               Vec3f(rng.range(-0.1f, 0.1f), rng.range(-0.1f, 0.1f), 1).normalized());
         }
-        if (s.colors) {
-          w.colors.push_back(Rgb8{static_cast<std::uint8_t>(rng.below(256)),
+        if (s.colours) {
+          w.colours.push_back(Rgb8{static_cast<std::uint8_t>(rng.below(256)),
                                   static_cast<std::uint8_t>(rng.below(256)),
                                   static_cast<std::uint8_t>(rng.below(256))});
         }

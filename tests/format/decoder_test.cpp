@@ -63,7 +63,7 @@ PointCloud slice(const PointCloud& c, std::size_t begin, std::size_t end) {
   const auto b = static_cast<std::ptrdiff_t>(begin), e = static_cast<std::ptrdiff_t>(end);
   out.positions.assign(c.positions.begin() + b, c.positions.begin() + e);
   if (c.has_normals()) out.normals.assign(c.normals.begin() + b, c.normals.begin() + e);
-  if (c.has_colors()) out.colors.assign(c.colors.begin() + b, c.colors.begin() + e);
+  if (c.has_colours()) out.colours.assign(c.colours.begin() + b, c.colours.begin() + e);
   return out;
 }
 
@@ -71,7 +71,7 @@ void expect_same(const PointCloud& a, const PointCloud& b, const std::string& wh
   ASSERT_EQ(a.size(), b.size()) << what;
   EXPECT_TRUE(a.positions == b.positions) << what;
   EXPECT_TRUE(a.normals == b.normals) << what;
-  EXPECT_TRUE(a.colors == b.colors) << what;
+  EXPECT_TRUE(a.colours == b.colours) << what;
 }
 
 TEST(DecoderTest, DecodePatchIsItsPartOfDecodeAll) {
@@ -108,7 +108,7 @@ TEST(DecoderTest, DecodeBoxIsDecodeAllFilteredByTheBox) {
       if (!box.contains(f.all.positions[i])) continue;
       expected.positions.push_back(f.all.positions[i]);
       expected.normals.push_back(f.all.normals[i]);
-      expected.colors.push_back(f.all.colors[i]);
+      expected.colours.push_back(f.all.colours[i]);
     }
     auto got = f.compressed.decode_box(box);
     ASSERT_TRUE(got.ok()) << got.status().to_string();

@@ -46,7 +46,7 @@ std::string describe(const PointCloud& c) {
     const Vec3f& n = c.normals[i];
     std::snprintf(line, sizeof line, "%.9g %.9g %.9g %.9g %.9g %.9g %u %u %u\n", double{p.x()},
                   double{p.y()}, double{p.z()}, double{n.x()}, double{n.y()}, double{n.z()},
-                  unsigned{c.colors[i].r}, unsigned{c.colors[i].g}, unsigned{c.colors[i].b});
+                  unsigned{c.colours[i].r}, unsigned{c.colours[i].g}, unsigned{c.colours[i].b});
     out += line;
   }
   return out;

@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 namespace sspc {

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 namespace sspc {
@@ -27,14 +27,14 @@ std::vector<float> random_rows(std::size_t rows, std::size_t dimension, std::uin
   return data;
 }
 
-std::vector<L1Neighbor> brute_sorted(const std::vector<float>& data, std::size_t dimension,
+std::vector<L1Neighbour> brute_sorted(const std::vector<float>& data, std::size_t dimension,
                                      const float* query) {
-  std::vector<L1Neighbor> all;
+  std::vector<L1Neighbour> all;
   for (std::size_t r = 0; r < data.size() / dimension; ++r) {
     all.push_back(
         {static_cast<std::uint32_t>(r), l1_distance(query, &data[r * dimension], dimension)});
   }
-  std::sort(all.begin(), all.end(), [](const L1Neighbor& a, const L1Neighbor& b) {
+  std::sort(all.begin(), all.end(), [](const L1Neighbour& a, const L1Neighbour& b) {
     return a.distance < b.distance || (a.distance == b.distance && a.index < b.index);
   });
   return all;
@@ -64,11 +64,11 @@ TEST_P(KdTreeL1Test, RadiusAndKnnMatchBruteForce) {
     const float radius =
         trial % 3 == 0 ? all[rng.next_u64() % 200].distance
                        : static_cast<float>(rng.uniform(0, 0.15 * static_cast<double>(dimension)));
-    std::vector<L1Neighbor> expected;
+    std::vector<L1Neighbour> expected;
     for (const auto& n : all) {
       if (n.distance <= radius) expected.push_back(n);
     }
-    std::vector<L1Neighbor> got;
+    std::vector<L1Neighbour> got;
     ASSERT_EQ(tree.radius(query, radius, got), expected.size()) << "trial " << trial;
     for (std::size_t j = 0; j < got.size(); ++j) {
       ASSERT_EQ(got[j].index, expected[j].index);
@@ -91,7 +91,7 @@ INSTANTIATE_TEST_SUITE_P(Dimensions, KdTreeL1Test,
 TEST(KdTreeL1, EmptyAndShortQueriesAnswerNothing) {
   const std::vector<float> none;
   const KdTreeL1 empty(none, 4);
-  std::vector<L1Neighbor> got;
+  std::vector<L1Neighbour> got;
   const std::vector<float> query(4, 0.0f);
   EXPECT_EQ(empty.radius(query, 1.0f, got), 0u);
   EXPECT_EQ(empty.knn(query, 3, got), 0u);

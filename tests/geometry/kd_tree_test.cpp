@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 namespace sspc {
@@ -20,13 +20,13 @@ float distance_squared(const Vec3f& a, const Vec3f& b) {
   return dx * dx + dy * dy + dz * dz;
 }
 
-bool before(const Neighbor& a, const Neighbor& b) {
+bool before(const Neighbour& a, const Neighbour& b) {
   return a.distance_squared < b.distance_squared ||
          (a.distance_squared == b.distance_squared && a.index < b.index);
 }
 
-std::vector<Neighbor> brute_sorted(const std::vector<Vec3f>& points, const Vec3f& q) {
-  std::vector<Neighbor> all;
+std::vector<Neighbour> brute_sorted(const std::vector<Vec3f>& points, const Vec3f& q) {
+  std::vector<Neighbour> all;
   all.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     all.push_back({static_cast<std::uint32_t>(i), distance_squared(points[i], q)});
@@ -74,7 +74,7 @@ void expect_knn_matches_brute_force(const std::vector<Vec3f>& points, std::size_
                                            static_cast<float>(rng.uniform(-1, 3)));
     const auto expected = brute_sorted(points, q);
     for (std::size_t k : {std::size_t{1}, std::size_t{5}, std::size_t{16}}) {
-      std::vector<Neighbor> got;
+      std::vector<Neighbour> got;
       ASSERT_EQ(tree.knn(q, k, got), k);
       for (std::size_t j = 0; j < k; ++j) {
         ASSERT_EQ(got[j].index, expected[j].index) << "trial " << trial << " k " << k << " j " << j;
@@ -101,7 +101,7 @@ TEST(KdTree3, KnnMatchesBruteForceOnRandomCloudWithDuplicates) {
 TEST(KdTree3, KnnReturnsAllPointsWhenKExceedsSize) {
   const std::vector<Vec3f> points = {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 0, 0)};
   const KdTree3 tree(points);
-  std::vector<Neighbor> got;
+  std::vector<Neighbour> got;
   ASSERT_EQ(tree.knn(Vec3f(0, 0, 0), 10, got), 3u);
   EXPECT_EQ(got[0].index, 0u);
   EXPECT_EQ(got[1].index, 2u);
@@ -111,7 +111,7 @@ TEST(KdTree3, KnnReturnsAllPointsWhenKExceedsSize) {
 TEST(KdTree3, EmptyTreeAnswersNothing) {
   const std::vector<Vec3f> points;
   const KdTree3 tree(points);
-  std::vector<Neighbor> got;
+  std::vector<Neighbour> got;
   EXPECT_EQ(tree.knn(Vec3f(0, 0, 0), 3, got), 0u);
   EXPECT_EQ(tree.radius(Vec3f(0, 0, 0), 1.0f, got), 0u);
   const KnnTable table = tree.knn_batch(points, 4);
@@ -129,18 +129,18 @@ TEST(KdTree3, RadiusMatchesBruteForceAndIncludesBoundary) {
       const float r = trial % 2 == 0 ? std::sqrt(all[rng.next_u64() % all.size()].distance_squared)
                                      : static_cast<float>(rng.uniform(0, 2));
       const float r2 = r * r;
-      std::vector<Neighbor> expected;
+      std::vector<Neighbour> expected;
       for (const auto& n : all) {
         if (n.distance_squared <= r2) expected.push_back(n);
       }
-      std::vector<Neighbor> got;
+      std::vector<Neighbour> got;
       ASSERT_EQ(tree.radius(q, r, got), expected.size()) << "trial " << trial << " r " << r;
       for (std::size_t j = 0; j < got.size(); ++j) {
         ASSERT_EQ(got[j].index, expected[j].index);
         ASSERT_EQ(got[j].distance_squared, expected[j].distance_squared);
       }
       // Unsorted answers hold the same set.
-      std::vector<Neighbor> unsorted;
+      std::vector<Neighbour> unsorted;
       tree.radius(q, r, unsorted, false);
       std::sort(unsorted.begin(), unsorted.end(), before);
       ASSERT_EQ(unsorted.size(), expected.size());
@@ -154,7 +154,7 @@ TEST(KdTree3, RadiusKeepsPointExactlyOnTheBoundary) {
   const std::vector<Vec3f> points = {Vec3f(0, 0, 0), Vec3f(3, 0, 0), Vec3f(0, 4, 0),
                                      Vec3f(5, 0.1f, 0)};
   const KdTree3 tree(points, 1);
-  std::vector<Neighbor> got;
+  std::vector<Neighbour> got;
   ASSERT_EQ(tree.radius(Vec3f(0, 0, 0), 4.0f, got), 3u);
   EXPECT_EQ(got[2].index, 2u);
   EXPECT_EQ(got[2].distance_squared, 16.0f);

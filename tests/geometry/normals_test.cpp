@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "sspc/neighbors.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 namespace sspc {

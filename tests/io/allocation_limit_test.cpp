@@ -187,7 +187,7 @@ TEST(AllocationLimit, SspcZstdBomb) {
   test::ModelShape shape;
   shape.side = 8;
   shape.normals = false;
-  shape.colors = false;
+  shape.colours = false;
   codec::QuantOptions options;
   options.codewords_per_block = 1024;  // one code-book block
   auto encoded = codec::encode_container(test::make_plane_model(shape), options);

@@ -18,14 +18,14 @@ inline std::span<const std::byte> bytes_of(std::string_view s) {
 
 // A cloud whose floats exercise the exact round trip: negative zero, tiny and huge magnitudes,
 // values with no short decimal form.
-inline PointCloud sample_cloud(std::size_t n, bool normals, bool colors) {
+inline PointCloud sample_cloud(std::size_t n, bool normals, bool colours) {
   PointCloud c;
   for (std::size_t i = 0; i < n; ++i) {
     const auto f = static_cast<float>(i);
     c.positions.emplace_back(f * 0.1f + 1.0f / 3.0f, -f * 1e-7f - 0.0f, 1e30f / (f + 1.0f));
     if (normals) c.normals.emplace_back(0.6f, -0.8f * (i % 2 == 0 ? 1.0f : -1.0f), 1e-38f);
-    if (colors) {
-      c.colors.push_back(Rgb8{static_cast<std::uint8_t>(i * 37), static_cast<std::uint8_t>(255 - i),
+    if (colours) {
+      c.colours.push_back(Rgb8{static_cast<std::uint8_t>(i * 37), static_cast<std::uint8_t>(255 - i),
                               static_cast<std::uint8_t>(i * 11 + 5)});
     }
   }

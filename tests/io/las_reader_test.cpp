@@ -58,10 +58,10 @@ TEST(LasReader, HandBuiltFormats1And3KeepEveryFieldAndEveryInteger) {
       ASSERT_EQ(a.rgb.size(), points.size());
       EXPECT_EQ(a.rgb[5][0], points[5].r);
       // 16-bit colours give the cloud their high bytes.
-      EXPECT_EQ(cloud->colors[5], (Rgb8{5, static_cast<std::uint8_t>((65535 - 500) >> 8), 16}));
+      EXPECT_EQ(cloud->colours[5], (Rgb8{5, static_cast<std::uint8_t>((65535 - 500) >> 8), 16}));
     } else {
       EXPECT_TRUE(a.rgb.empty());
-      EXPECT_FALSE(cloud->has_colors());
+      EXPECT_FALSE(cloud->has_colours());
     }
   }
 }

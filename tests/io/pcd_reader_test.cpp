@@ -39,11 +39,11 @@ Vec3f position(std::size_t i) {
 Vec3f normal(std::size_t i) {
   return Vec3f(0.0f, i % 2 == 0 ? 1.0f : -1.0f, 0.0f);
 }
-Rgb8 color(std::size_t i) {
+Rgb8 colour(std::size_t i) {
   return Rgb8{static_cast<std::uint8_t>(200 + i), static_cast<std::uint8_t>(i * 50), 7};
 }
 std::uint32_t packed(std::size_t i) {
-  const Rgb8 c = color(i);
+  const Rgb8 c = colour(i);
   return 0xff000000u | std::uint32_t{c.r} << 16 | std::uint32_t{c.g} << 8 | c.b;
 }
 
@@ -51,11 +51,11 @@ void expect_sample(const StatusOr<PointCloud>& cloud) {
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
   ASSERT_EQ(cloud->size(), kPoints);
   ASSERT_TRUE(cloud->has_normals());
-  ASSERT_TRUE(cloud->has_colors());
+  ASSERT_TRUE(cloud->has_colours());
   for (std::size_t i = 0; i < kPoints; ++i) {
     EXPECT_TRUE(test::same_bits(cloud->positions[i], position(i))) << i;
     EXPECT_EQ(cloud->normals[i], normal(i)) << i;
-    EXPECT_EQ(cloud->colors[i], color(i)) << i;
+    EXPECT_EQ(cloud->colours[i], colour(i)) << i;
   }
 }
 
@@ -104,7 +104,7 @@ TEST(PcdReader, AsciiRgbPrintedAsAFloat) {
       float_text(bits) + "\n";
   const StatusOr<PointCloud> cloud = read_pcd(bytes_of(pcd), "float-rgb.pcd");
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
-  EXPECT_EQ(cloud->colors[0], (Rgb8{0xff, 0x80, 0x40}));
+  EXPECT_EQ(cloud->colours[0], (Rgb8{0xff, 0x80, 0x40}));
 }
 
 TEST(PcdReader, Binary) {
@@ -172,7 +172,7 @@ TEST(PcdReader, RgbaAndIntegerCoordinates) {
   const StatusOr<PointCloud> cloud = read_pcd(bytes_of(pcd), "rgba.pcd");
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
   EXPECT_EQ(cloud->positions[0], Vec3f(200.0f, 0.5f, -300.0f));
-  EXPECT_EQ(cloud->colors[0], (Rgb8{0x10, 0x20, 0x30}));
+  EXPECT_EQ(cloud->colours[0], (Rgb8{0x10, 0x20, 0x30}));
   EXPECT_FALSE(cloud->has_normals());
 }
 

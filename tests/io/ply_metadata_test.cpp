@@ -61,14 +61,14 @@ TEST(XyzByExtension, XyzrgbReadsColoursAsOpen3dWritesThem) {
   const StatusOr<PointCloud> unit = read_point_cloud(dir.path() / "a.xyzrgb");
   ASSERT_TRUE(unit.ok()) << unit.status().to_string();
   EXPECT_FALSE(unit->has_normals());
-  ASSERT_TRUE(unit->has_colors());
-  EXPECT_EQ(unit->colors[0], (Rgb8{255, 128, 0}));
-  EXPECT_EQ(unit->colors[2], (Rgb8{51, 51, 51}));
+  ASSERT_TRUE(unit->has_colours());
+  EXPECT_EQ(unit->colours[0], (Rgb8{255, 128, 0}));
+  EXPECT_EQ(unit->colours[2], (Rgb8{51, 51, 51}));
   test::write_bytes(dir.path() / "b.xyzrgb", "0 0 0 255 128 0\n1 0 0 0 0 1\n");
   const StatusOr<PointCloud> bytes = read_point_cloud(dir.path() / "b.xyzrgb");
   ASSERT_TRUE(bytes.ok());
-  EXPECT_EQ(bytes->colors[0], (Rgb8{255, 128, 0}));
-  EXPECT_EQ(bytes->colors[1], (Rgb8{0, 0, 1}));
+  EXPECT_EQ(bytes->colours[0], (Rgb8{255, 128, 0}));
+  EXPECT_EQ(bytes->colours[1], (Rgb8{0, 0, 1}));
   test::write_bytes(dir.path() / "c.xyzrgb", "0 0 0 1.5 0 0\n");
   EXPECT_FALSE(read_point_cloud(dir.path() / "c.xyzrgb").ok());
   // The same values in .xyz are normals (the guess), and in .xyzn always.
@@ -76,7 +76,7 @@ TEST(XyzByExtension, XyzrgbReadsColoursAsOpen3dWritesThem) {
   const StatusOr<PointCloud> normals = read_point_cloud(dir.path() / "n.xyzn");
   ASSERT_TRUE(normals.ok());
   EXPECT_TRUE(normals->has_normals());
-  EXPECT_FALSE(normals->has_colors());
+  EXPECT_FALSE(normals->has_colours());
 }
 
 }  // namespace

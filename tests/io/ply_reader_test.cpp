@@ -99,7 +99,7 @@ TEST(PlyReader, PropertiesInAnyOrderWithExtrasSkipped) {
   ASSERT_EQ(cloud->size(), 2u);
   EXPECT_EQ(cloud->positions[1], Vec3f(2.5f, -3.0f, 4.25f));
   EXPECT_EQ(cloud->normals[0], Vec3f(0.75f, -0.25f, 0.5f));
-  EXPECT_EQ(cloud->colors[1], (Rgb8{10, 20, 31}));
+  EXPECT_EQ(cloud->colours[1], (Rgb8{10, 20, 31}));
 }
 
 // Hand-built big-endian bytes with known values: 1.0f = 3f800000, -2.0f = c0000000,
@@ -116,7 +116,7 @@ TEST(PlyReader, BigEndianBytesDecodeToKnownValues) {
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
   EXPECT_EQ(cloud->positions[0], Vec3f(1.0f, -2.0f, 0.15625f));
   // 16-bit colours scale to 8 bits; a negative short (0xffff = -1) clamps to 0.
-  EXPECT_EQ(cloud->colors[0], (Rgb8{0, 0, 1}));
+  EXPECT_EQ(cloud->colours[0], (Rgb8{0, 0, 1}));
 }
 
 const std::string kFaceElement =
@@ -231,7 +231,7 @@ TEST(PlyReader, FloatColoursScaleAndDiffuseNamesAndNormalAliases) {
   const StatusOr<PointCloud> cloud = read_ply(bytes_of(ply), "diffuse.ply");
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
   EXPECT_EQ(cloud->normals[0], Vec3f(0, 0, 1));
-  EXPECT_EQ(cloud->colors[0], (Rgb8{255, 128, 0}));
+  EXPECT_EQ(cloud->colours[0], (Rgb8{255, 128, 0}));
 }
 
 TEST(PlyReader, PartialNormalsAreIgnored) {

@@ -16,12 +16,12 @@ using test::bytes_of;
 using test::same_bits;
 
 class PlyRoundTrip
-    : public ::testing::TestWithParam<std::tuple<PlyEncoding, bool /*normals*/, bool /*colors*/>> {
+    : public ::testing::TestWithParam<std::tuple<PlyEncoding, bool /*normals*/, bool /*colours*/>> {
 };
 
 TEST_P(PlyRoundTrip, FloatsAndColoursComeBackBitExact) {
-  const auto [encoding, normals, colors] = GetParam();
-  const PointCloud cloud = test::sample_cloud(50, normals, colors);
+  const auto [encoding, normals, colours] = GetParam();
+  const PointCloud cloud = test::sample_cloud(50, normals, colours);
   PlyWriteOptions options;
   options.encoding = encoding;
   const std::string bytes = encode_ply(cloud, options);
@@ -29,14 +29,14 @@ TEST_P(PlyRoundTrip, FloatsAndColoursComeBackBitExact) {
   ASSERT_TRUE(back.ok()) << back.status().to_string();
   ASSERT_EQ(back->size(), cloud.size());
   EXPECT_EQ(back->has_normals(), normals);
-  EXPECT_EQ(back->has_colors(), colors);
+  EXPECT_EQ(back->has_colours(), colours);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     EXPECT_TRUE(same_bits(back->positions[i], cloud.positions[i])) << "point " << i;
     if (normals) {
       EXPECT_TRUE(same_bits(back->normals[i], cloud.normals[i])) << "normal " << i;
     }
-    if (colors) {
-      EXPECT_EQ(back->colors[i], cloud.colors[i]) << "colour " << i;
+    if (colours) {
+      EXPECT_EQ(back->colours[i], cloud.colours[i]) << "colour " << i;
     }
   }
 }
@@ -64,12 +64,12 @@ TEST(PlyWriter, HeaderNamesTheLayoutAndKeepsComments) {
 TEST(PlyWriter, OptionsCanDropNormalsAndColours) {
   PlyWriteOptions options;
   options.write_normals = false;
-  options.write_colors = false;
+  options.write_colours = false;
   const std::string bytes = encode_ply(test::sample_cloud(3, true, true), options);
   const StatusOr<PointCloud> back = read_ply(bytes_of(bytes), "memory.ply");
   ASSERT_TRUE(back.ok()) << back.status().to_string();
   EXPECT_FALSE(back->has_normals());
-  EXPECT_FALSE(back->has_colors());
+  EXPECT_FALSE(back->has_colours());
 }
 
 TEST(PlyWriter, WritePlyReplacesTheFileAtomically) {

@@ -22,7 +22,7 @@ TEST(XyzReader, ThreeColumnsWithCommentsBlankLinesAndCrlf) {
   ASSERT_EQ(c->size(), 2u);
   EXPECT_EQ(c->positions[1], Vec3f(4.5f, -0.5f, 6.0f));
   EXPECT_FALSE(c->has_normals());
-  EXPECT_FALSE(c->has_colors());
+  EXPECT_FALSE(c->has_colours());
 }
 
 TEST(XyzReader, Utf8ByteOrderMark) {
@@ -43,7 +43,7 @@ TEST(XyzReader, SixDecimalColumnsAreNormals) {
   const StatusOr<PointCloud> c = read("0 0 0 0.6 0.8 0\n1 1 1 0 0 1\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   ASSERT_TRUE(c->has_normals());
-  EXPECT_FALSE(c->has_colors());
+  EXPECT_FALSE(c->has_colours());
   EXPECT_EQ(c->normals[0], Vec3f(0.6f, 0.8f, 0.0f));
 }
 
@@ -51,30 +51,30 @@ TEST(XyzReader, SixColumnsOfOnlyZerosAndOnesAreNormals) {
   const StatusOr<PointCloud> c = read("0 0 0 0 0 1\n1 1 1 1 0 0\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   EXPECT_TRUE(c->has_normals());
-  EXPECT_FALSE(c->has_colors());
+  EXPECT_FALSE(c->has_colours());
 }
 
 TEST(XyzReader, SixIntegerColumnsUpTo255AreColours) {
   const StatusOr<PointCloud> c = read("0 0 0 0 0 1\n1 1 1 255 128 0\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   EXPECT_FALSE(c->has_normals());
-  ASSERT_TRUE(c->has_colors());
-  EXPECT_EQ(c->colors[0], (Rgb8{0, 0, 1}));
-  EXPECT_EQ(c->colors[1], (Rgb8{255, 128, 0}));
+  ASSERT_TRUE(c->has_colours());
+  EXPECT_EQ(c->colours[0], (Rgb8{0, 0, 1}));
+  EXPECT_EQ(c->colours[1], (Rgb8{255, 128, 0}));
 }
 
 TEST(XyzReader, SixColumnsWithOneDecimalAreNormals) {
   const StatusOr<PointCloud> c = read("0 0 0 0 0 1\n1 1 1 255 128 0.5\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   EXPECT_TRUE(c->has_normals());
-  EXPECT_FALSE(c->has_colors());
+  EXPECT_FALSE(c->has_colours());
 }
 
 TEST(XyzReader, NineColumns) {
   const StatusOr<PointCloud> c = read("1 2 3 0 1 0 10 20 30\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   EXPECT_EQ(c->normals[0], Vec3f(0, 1, 0));
-  EXPECT_EQ(c->colors[0], (Rgb8{10, 20, 30}));
+  EXPECT_EQ(c->colours[0], (Rgb8{10, 20, 30}));
 }
 
 TEST(XyzReader, PtsWithCountIntensityAndColour) {
@@ -82,14 +82,14 @@ TEST(XyzReader, PtsWithCountIntensityAndColour) {
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   ASSERT_EQ(c->size(), 2u);
   EXPECT_EQ(c->positions[1], Vec3f(4, 5, 6));
-  EXPECT_EQ(c->colors[1], (Rgb8{40, 50, 60}));
+  EXPECT_EQ(c->colours[1], (Rgb8{40, 50, 60}));
 }
 
 TEST(XyzReader, PtsWithIntensityOnly) {
   const StatusOr<PointCloud> c = read("1 2 3 0.5\n4 5 6 0.25\n");
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   EXPECT_EQ(c->size(), 2u);
-  EXPECT_FALSE(c->has_colors());
+  EXPECT_FALSE(c->has_colours());
 }
 
 TEST(XyzReader, ErrorsNameTheLine) {

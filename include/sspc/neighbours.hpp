@@ -21,7 +21,7 @@
 namespace sspc {
 
 // One neighbour: the point's index and its squared Euclidean distance to the query.
-struct Neighbor {
+struct Neighbour {
   std::uint32_t index;
   float distance_squared;
 };
@@ -57,14 +57,14 @@ class KdTree3 {
   std::size_t knn(const Vec3f& query, std::size_t k, std::uint32_t* indices,
                   float* distances_squared) const;
   // Convenience overload filling vectors.
-  std::size_t knn(const Vec3f& query, std::size_t k, std::vector<Neighbor>& out) const;
+  std::size_t knn(const Vec3f& query, std::size_t k, std::vector<Neighbour>& out) const;
 
   // The nearest point; its squared distance in `distance_squared`. Requires a non-empty tree.
   std::uint32_t nearest(const Vec3f& query, float* distance_squared) const;
 
   // Every point within `radius` (not squared, boundary included: d² ≤ radius²) of `query`,
   // sorted by distance and then index when `sorted`.
-  std::size_t radius(const Vec3f& query, float radius, std::vector<Neighbor>& out,
+  std::size_t radius(const Vec3f& query, float radius, std::vector<Neighbour>& out,
                      bool sorted = true) const;
 
   // k nearest neighbours of every query, in parallel. `exclude_self`: queries are the tree's own
@@ -80,7 +80,7 @@ class KdTree3 {
 };
 
 // One neighbour in the L1 metric: the item's index and its L1 distance to the query.
-struct L1Neighbor {
+struct L1Neighbour {
   std::uint32_t index;
   float distance;
 };
@@ -109,10 +109,10 @@ class KdTreeL1 {
   // Every item whose l1_distance to `query` (dimension() floats) is ≤ `radius`: the radius is a
   // plain L1 distance, not squared. Sorted by distance, then index. Returns out.size().
   std::size_t radius(std::span<const float> query, float radius,
-                     std::vector<L1Neighbor>& out) const;
+                     std::vector<L1Neighbour>& out) const;
 
   // The k nearest items in L1, closest first (ties: lower index first). Returns out.size().
-  std::size_t knn(std::span<const float> query, std::size_t k, std::vector<L1Neighbor>& out) const;
+  std::size_t knn(std::span<const float> query, std::size_t k, std::vector<L1Neighbour>& out) const;
 
  private:
   struct Impl;

@@ -19,8 +19,8 @@ float position_step(float patch_radius, int bits);
 // The fewest bits (within the format's 4..16) whose grid of `step` spans ±patch_radius: what the
 // writer stores when it is given an exact step (QuantOptions::position_step).
 int position_bits_for_step(double patch_radius, double step);
-std::uint32_t quantize_coordinate(float x, float step, int bits);
-inline float dequantize_coordinate(std::uint32_t v, float step, int bits) {
+std::uint32_t quantise_coordinate(float x, float step, int bits);
+inline float dequantise_coordinate(std::uint32_t v, float step, int bits) {
   const auto half = static_cast<std::int32_t>(1u << (bits - 1));
   return (static_cast<float>(static_cast<std::int32_t>(v) - half) + 0.5f) * step;
 }
@@ -44,8 +44,8 @@ Eigen::Matrix3f decode_rotation(const PackedRotation& packed, int bits);
 // --- Translations: an i32 grid of `step` relative to `origin` (the bounds' minimum).
 
 // False when a coordinate falls outside |v| < 2^24 (the writer reports it).
-[[nodiscard]] bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
+[[nodiscard]] bool quantise_translation(const Vec3f& t, const Vec3f& origin, float step,
                           std::array<std::int32_t, 3>& out);
-Vec3f dequantize_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin, float step);
+Vec3f dequantise_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin, float step);
 
 }  // namespace sspc::codec

@@ -1,6 +1,6 @@
 // The quantisers of docs/FORMAT.md: error bounds, total decoders, and the measurement behind
 // the default rotation_bits.
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,25 +12,25 @@
 namespace sspc::codec {
 namespace {
 
-TEST(QuantizeTest, PositionWithinHalfStep) {
+TEST(QuantiseTest, PositionWithinHalfStep) {
   test::TestRng rng(1);
   const float radius = 3.5f;
   for (int bits : {4, 12, 16}) {
     const float step = position_step(radius, bits);
     for (int i = 0; i < 20000; ++i) {
       const float x = rng.range(-radius, radius);
-      const std::uint32_t v = quantize_coordinate(x, step, bits);
+      const std::uint32_t v = quantise_coordinate(x, step, bits);
       ASSERT_LT(v, 1u << bits);
-      EXPECT_LE(std::abs(dequantize_coordinate(v, step, bits) - x), step * 0.5f * 1.0001f)
+      EXPECT_LE(std::abs(dequantise_coordinate(v, step, bits) - x), step * 0.5f * 1.0001f)
           << "bits " << bits << " x " << x;
     }
     // Outside the range clamps to the end cells instead of wrapping.
-    EXPECT_EQ(quantize_coordinate(10 * radius, step, bits), (1u << bits) - 1);
-    EXPECT_EQ(quantize_coordinate(-10 * radius, step, bits), 0u);
+    EXPECT_EQ(quantise_coordinate(10 * radius, step, bits), (1u << bits) - 1);
+    EXPECT_EQ(quantise_coordinate(-10 * radius, step, bits), 0u);
   }
 }
 
-TEST(QuantizeTest, NormalsOctahedral10BitsUnderAQuarterDegree) {
+TEST(QuantiseTest, NormalsOctahedral10BitsUnderAQuarterDegree) {
   test::TestRng rng(2);
   double worst = 0;
   for (int i = 0; i < 20000; ++i) {
@@ -45,7 +45,7 @@ TEST(QuantizeTest, NormalsOctahedral10BitsUnderAQuarterDegree) {
   EXPECT_LT(worst * 180.0 / M_PI, 0.25);
 }
 
-TEST(QuantizeTest, EveryStoredRotationDecodesToARotation) {
+TEST(QuantiseTest, EveryStoredRotationDecodesToARotation) {
   test::TestRng rng(3);
   for (int bits : {4, 13, 20}) {
     for (int i = 0; i < 5000; ++i) {
@@ -77,7 +77,7 @@ double worst_rotation_error(int bits, float radius) {
   return worst;
 }
 
-TEST(QuantizeTest, RotationErrorBelowPositionStep) {
+TEST(QuantiseTest, RotationErrorBelowPositionStep) {
   const float radius = 1.0f;
   const double step = position_step(radius, 12);
   const double e13 = worst_rotation_error(13, radius);
@@ -89,19 +89,19 @@ TEST(QuantizeTest, RotationErrorBelowPositionStep) {
   EXPECT_LT(e13, step);
 }
 
-TEST(QuantizeTest, TranslationGrid) {
+TEST(QuantiseTest, TranslationGrid) {
   const Vec3f origin(-5, 2, 100);
   const float step = 1.0f / 64;
   test::TestRng rng(5);
   for (int i = 0; i < 1000; ++i) {
     const Vec3f t(rng.range(-5, 50), rng.range(2, 40), rng.range(100, 101));
     std::array<std::int32_t, 3> v{};
-    ASSERT_TRUE(quantize_translation(t, origin, step, v));
-    const Vec3f d = dequantize_translation(v, origin, step);
+    ASSERT_TRUE(quantise_translation(t, origin, step, v));
+    const Vec3f d = dequantise_translation(v, origin, step);
     EXPECT_LE((d - t).cwiseAbs().maxCoeff(), step * 0.5f + 1e-4f);
   }
   std::array<std::int32_t, 3> v{};
-  EXPECT_FALSE(quantize_translation(Vec3f(1e9f, 0, 0), origin, step, v));
+  EXPECT_FALSE(quantise_translation(Vec3f(1e9f, 0, 0), origin, step, v));
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // Quantisers of docs/FORMAT.md. Decoders here are total functions: any stored bits give a finite
 // value (a unit normal, a rotation), so a corrupt block that slips past its CRC decodes to
 // wrong but well-formed geometry, never to NaN.
-#include "format/quantize.hpp"
+#include "format/quantise.hpp"
 
 #include "format/container_format.hpp"
 
@@ -35,7 +35,7 @@ int position_bits_for_step(double patch_radius, double step) {
   return static_cast<int>(std::clamp(bits, double{kMinPositionBits}, double{kMaxPositionBits}));
 }
 
-std::uint32_t quantize_coordinate(float x, float step, int bits) {
+std::uint32_t quantise_coordinate(float x, float step, int bits) {
   const double half = static_cast<double>(1u << (bits - 1));
   double cell = std::floor(static_cast<double>(x) / static_cast<double>(step));
   if (!std::isfinite(cell)) cell = 0;
@@ -119,7 +119,7 @@ Eigen::Matrix3f decode_rotation(const PackedRotation& packed, int bits) {
   return q.toRotationMatrix();
 }
 
-bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
+bool quantise_translation(const Vec3f& t, const Vec3f& origin, float step,
                           std::array<std::int32_t, 3>& out) {
   for (int a = 0; a < 3; ++a) {
     const double v = std::round((static_cast<double>(t[a]) - static_cast<double>(origin[a])) /
@@ -130,7 +130,7 @@ bool quantize_translation(const Vec3f& t, const Vec3f& origin, float step,
   return true;
 }
 
-Vec3f dequantize_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin,
+Vec3f dequantise_translation(const std::array<std::int32_t, 3>& v, const Vec3f& origin,
                              float step) {
   return {origin.x() + step * static_cast<float>(v[0]),
           origin.y() + step * static_cast<float>(v[1]),
