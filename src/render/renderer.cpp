@@ -1,5 +1,5 @@
-// The uncompressed renderer: one MLS surface over the whole cloud, primary rays from a pinhole
-// camera, parallel over image rows (each pixel written by one task: deterministic).
+// The uncompressed renderer (paper §5): one MLS surface over the whole cloud, primary rays from
+// a pinhole camera, parallel over image rows (each pixel written by one task: deterministic).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
