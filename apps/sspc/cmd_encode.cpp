@@ -11,6 +11,7 @@
 #include "command.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
+#include "sspc/metrics.hpp"
 
 namespace sspc::cli {
 namespace {
@@ -29,9 +30,56 @@ struct EncodeCliOptions {
   bool store_normals = false;
   bool full_spheres = false;
   bool keep_duplicates = false;
+  std::string attributes = "all";
+  int colour_quality = EncodeOptions().colour_quality;
+  int intensity_step = 1;
   bool force = false;
   bool json = false;
 };
+
+// --attributes: "all", "none" or a comma-separated list of names.
+StatusOr<unsigned> parse_attributes(const std::string& text) {
+  if (text == "all") return kAllAttributes;
+  if (text == "none") return 0u;
+  static const std::map<std::string, unsigned> names{{"colour", kAttributeColour},
+                                                     {"intensity", kAttributeIntensity},
+                                                     {"classification", kAttributeClassification},
+                                                     {"returns", kAttributeReturns}};
+  unsigned bits = 0;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(',', start), text.size());
+    const std::string name = text.substr(start, end - start);
+    const auto it = names.find(name);
+    if (it == names.end()) {
+      return invalid_argument("--attributes: unknown attribute '" + name +
+                              "' (all, none, or a list of colour, intensity, classification, returns)");
+    }
+    bits |= it->second;
+    start = end + 1;
+  }
+  return bits;
+}
+
+// Keeps in `cloud` the attributes `keep` names and returns the names of those it drops, so that
+// nothing is lost silently.
+std::string drop_unkept_attributes(PointCloud& cloud, unsigned keep) {
+  LasPointAttributes dropped = std::move(cloud.las);
+  cloud.las = LasPointAttributes();
+  auto take = [](auto& from, auto& to) { to = std::move(from), from = {}; };
+  if (keep & kAttributeIntensity) take(dropped.intensity, cloud.las.intensity);
+  if (keep & kAttributeClassification) take(dropped.classification, cloud.las.classification);
+  if (keep & kAttributeReturns) {
+    take(dropped.return_number, cloud.las.return_number);
+    take(dropped.number_of_returns, cloud.las.number_of_returns);
+  }
+  std::string names = dropped.empty() ? std::string() : dropped.names();
+  if (cloud.has_colours() && (keep & kAttributeColour) == 0) {
+    cloud.colours = {};
+    names = names.empty() ? "colours" : "colours, " + names;
+  }
+  return names;
+}
 
 // The stages encode() begins (src/encoder): normals when it estimates them (neighbours, PCA,
 // orientation), the patch centres (three), patches and descriptors, the code book, writing.
@@ -52,13 +100,12 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   auto cloud = read_cloud(o.input, read);
   if (!cloud.ok()) return report_failure(cloud.status());
   const std::string input_name = is_stdio(o.input) ? kStdinName : o.input;
-  // The codec keeps positions, normals and colours; a LAS file's own fields are named, not lost
-  // silently.
-  if (!cloud->las.empty()) {
-    std::fprintf(stderr, "sspc: warning: %s: the .sspc model keeps positions%s; dropped %s\n",
-                 input_name.c_str(), cloud->has_colours() ? " and colours" : "",
-                 cloud->las.names().c_str());
-    cloud->las.clear();
+  // The fields the codec does not keep, or was told not to, are named, not lost silently.
+  auto keep = parse_attributes(o.attributes);
+  if (!keep.ok()) return report_usage_error(keep.status());
+  if (const std::string dropped = drop_unkept_attributes(*cloud, *keep); !dropped.empty()) {
+    std::fprintf(stderr, "sspc: warning: %s: not kept in the .sspc model: %s\n", input_name.c_str(),
+                 dropped.c_str());
   }
   progress_stages(progress.get(), 1 + encode_stages(*cloud, o.normals));
   const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -73,6 +120,9 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.store_normals = o.store_normals;
   options.full_spheres = o.full_spheres;
   options.keep_duplicates = o.keep_duplicates;
+  options.attributes = *keep;
+  options.colour_quality = o.colour_quality;
+  options.intensity_step = o.intensity_step;
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
@@ -108,6 +158,14 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
     json["file_bytes"] = stats->file_bytes;
     json["codebook_bytes"] = stats->codebook_bytes;
     json["patch_bytes"] = stats->patch_bytes;
+    json["attribute_bytes"] = stats->attribute_bytes;
+    json["colour_bytes"] = stats->colour_bytes;
+    json["intensity_bytes"] = stats->intensity_bytes;
+    json["classification_bytes"] = stats->classification_bytes;
+    json["returns_bytes"] = stats->returns_bytes;
+    json["colour_step"] = stats->colour_step;
+    json["geometry_bits_per_point"] =
+        bits_per_point(stats->file_bytes - stats->attribute_bytes, stats->points);
     json["bits_per_point"] = stats->bits_per_point;
     json["read_seconds"] = read_seconds;
     json["normals_seconds"] = stats->seconds_normals;
@@ -165,6 +223,20 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                 "instance decodes are dropped");
   app->add_flag("--keep-duplicates", o->keep_duplicates,
                 "Store every point, also several in one cell of the code words' grid (by default a cell keeps one)");
+  app->add_option("--attributes", o->attributes,
+                  "Per-point attributes to keep, of those the input has: all, none, or a list of "
+                  "colour, intensity, classification, returns")
+      ->type_name("LIST")
+      ->capture_default_str();
+  app->add_option("--colour-quality", o->colour_quality,
+                  "Colour quality: 100 is lossless, every ~17 less halves the colour step")
+      ->check(CLI::Range(0, 100).description(""))
+      ->type_name("0..100")
+      ->capture_default_str();
+  app->add_option("--intensity-step", o->intensity_step, "LAS intensity quantisation step (1: lossless)")
+      ->check(CLI::Range(1, 4096).description(""))
+      ->type_name("1..4096")
+      ->capture_default_str();
   const std::map<std::string, NormalMode> modes{
       {"auto", NormalMode::kAuto}, {"keep", NormalMode::kKeep}, {"estimate", NormalMode::kEstimate}};
   app->add_option("--normals", o->normals,

@@ -8,6 +8,7 @@
 
 #include "command.hpp"
 #include "sspc/compressed_model.hpp"
+#include "sspc/encoder.hpp"
 
 namespace sspc::cli {
 bool is_sspc_file(const std::string& path) {
@@ -33,6 +34,15 @@ int run_info_sspc(const std::string& path, bool as_json) {
   std::string attributes = "positions";
   if (m.has_normals) attributes += " normals";
   if (m.has_colours) attributes += " colours";
+  if (m.attributes & kAttributeIntensity) attributes += " intensity";
+  if (m.attributes & kAttributeClassification) attributes += " classification";
+  if (m.attributes & kAttributeReturns) attributes += " returns";
+  if (m.attributes != 0) {
+    attributes += " (per point";
+    if (m.colour_step > 0) attributes += ", colour step " + std::to_string(m.colour_step);
+    if (m.intensity_step > 0) attributes += ", intensity step " + std::to_string(m.intensity_step);
+    attributes += ")";
+  }
 
   if (as_json) {
     Json json = json_report("info");
@@ -46,6 +56,12 @@ int run_info_sspc(const std::string& path, bool as_json) {
     json["las_grid"] = model->metadata().las.has_value();
     json["normals"] = m.has_normals;
     json["colours"] = m.has_colours;
+    json["intensity"] = (m.attributes & kAttributeIntensity) != 0;
+    json["classification"] = (m.attributes & kAttributeClassification) != 0;
+    json["returns"] = (m.attributes & kAttributeReturns) != 0;
+    json["colour_step"] = m.colour_step;
+    json["intensity_step"] = m.intensity_step;
+    json["attribute_bytes"] = m.attribute_bytes;
     json["source_points"] = m.source_points;
     json["patches"] = m.patches;
     json["codewords"] = m.codewords;

@@ -63,7 +63,13 @@ struct SectionInfo {
 struct ModelInfo {
   int version = 0;
   bool has_normals = false;
-  bool has_colours = false;
+  bool has_colours = false;  // per code word or per point (the attributes part)
+  // Per-point attributes coded per patch (docs/FORMAT.md, "Attributes"): kAttribute* bits of
+  // sspc/encoder.hpp, their steps (0 when absent), and the part's size.
+  unsigned attributes = 0;
+  int colour_step = 0;
+  int intensity_step = 0;
+  std::uint64_t attribute_bytes = 0;
   float patch_radius = 0;
   float coverage_radius = 0;
   float spacing = 0;

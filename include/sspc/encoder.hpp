@@ -12,6 +12,19 @@
 
 namespace sspc {
 
+// Per-point attributes the encoder can keep, each coded per patch against the decoded geometry
+// (docs/FORMAT.md, "Attributes"): bits of EncodeOptions::attributes.
+inline constexpr unsigned kAttributeColour = 1u << 0;          // PointCloud::colours
+inline constexpr unsigned kAttributeIntensity = 1u << 1;       // las.intensity
+inline constexpr unsigned kAttributeClassification = 1u << 2;  // las.classification, lossless
+inline constexpr unsigned kAttributeReturns = 1u << 3;  // las.return_number and number_of_returns, lossless
+inline constexpr unsigned kAllAttributes = 0xF;
+
+// The colour quantisation step for a colour quality 0..100: 2^((100 − quality) · 6 / 100)
+// rounded, so 100 is lossless, every ~17 points halve the step (about 6 dB of colour PSNR) and
+// 0 gives a step of 64.
+int colour_step_for_quality(int quality);
+
 struct EncodeOptions {
   int level = 5;  // 0 (most detail) .. 9 (smallest); one row of docs/FORMAT.md's level table
   // Expert overrides of single fields of the level's row.
@@ -32,6 +45,10 @@ struct EncodeOptions {
   // cell keeps one point (G-PCC's merged duplicates): they decode to one position, so the
   // paper's PSNR barely moves (≤ 0.06 dB) while coarse levels lose 20–30% of their points.
   bool keep_duplicates = false;
+  // The attributes to keep, of those the cloud has (kAttribute* bits); the others are dropped.
+  unsigned attributes = kAllAttributes;
+  int colour_quality = 70;   // 0..100 (100: lossless); see colour_step_for_quality
+  int intensity_step = 1;    // 1..4096 (1: lossless)
   NormalOptions normals;            // how the input gets its normals (default: auto)
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
@@ -54,6 +71,14 @@ struct EncodeStats {
   std::uint64_t file_bytes = 0;
   std::uint64_t codebook_bytes = 0;
   std::uint64_t patch_bytes = 0;
+  std::uint64_t attribute_bytes = 0;  // the attributes part, with its tables
+  // Of which each channel's streams: colour, intensity, classification, returns.
+  std::uint64_t colour_bytes = 0;
+  std::uint64_t intensity_bytes = 0;
+  std::uint64_t classification_bytes = 0;
+  std::uint64_t returns_bytes = 0;
+  unsigned attributes = 0;  // the kAttribute* bits kept
+  int colour_step = 0;      // when colours are kept
   double bits_per_point = 0;
   double seconds_normals = 0;
   double seconds_centres = 0;

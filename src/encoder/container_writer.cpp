@@ -16,11 +16,14 @@
 
 #include "core/atomic_file.hpp"
 #include "core/parallel.hpp"
+#include "core/varint.hpp"
 #include "encoder/codeword_trim.hpp"
 #include "format/block_codec.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
 #include "format/quantise.hpp"
+#include "sspc/compressed_model.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -109,6 +112,19 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
   }
   if (o.patches_per_block == 0 || o.codewords_per_block == 0) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
+  }
+  if (const AttributeParams& a = o.attributes; a.channels != 0) {
+    if ((a.channels & ~kKnownChannels) != 0 || o.attribute_source == nullptr ||
+        (channels_present(*o.attribute_source) & a.channels) != a.channels) {
+      return invalid_argument("attributes asked for that the source does not have");
+    }
+    if (o.format_version < 3 || model.has_colours) {
+      return invalid_argument("per-patch attributes need format version 3 and no code-word colours");
+    }
+    if (a.colour_step < 1 || a.colour_step > kMaxColourStep || a.intensity_step < 1 ||
+        a.intensity_step > kMaxIntensityStep) {
+      return invalid_argument("colour step must be 1–64 and intensity step 1–4096");
+    }
   }
   if (o.zstd_level < ZSTD_minCLevel() || o.zstd_level > ZSTD_maxCLevel()) {
     return invalid_argument("zstd_level out of range");
@@ -201,6 +217,99 @@ std::string encode_header(const ContainerHeader& h) {
   return out;
 }
 
+// The attributes part (FORMAT.md, "Attributes") for the model whose geometry `geometry` holds:
+// decodes it as a reader will, gives each decoded point the values of its nearest source point,
+// and codes them patch by patch.
+StatusOr<std::string> encode_attribute_part(std::string geometry, const ContainerHeader& h,
+                                            const QuantOptions& options, ContainerStats* stats) {
+  const AttributeParams& params = options.attributes;
+  const PointCloud& source = *options.attribute_source;
+  SSPC_ASSIGN_OR_RETURN(const CompressedModel model, CompressedModel::from_bytes(std::move(geometry)));
+  std::vector<std::uint32_t> patch_of;
+  DecodeOptions decode;
+  decode.patch_of = &patch_of;
+  SSPC_ASSIGN_OR_RETURN(PointCloud decoded, model.decode_all(decode));
+  // Each patch's points are contiguous and in patch order.
+  std::vector<std::size_t> begin(h.patch_count + 1, decoded.size());
+  for (std::size_t i = decoded.size(); i-- > 0;) begin[patch_of[i]] = i;
+  for (std::size_t k = h.patch_count; k-- > 0;) begin[k] = std::min(begin[k], begin[k + 1]);
+
+  const KdTree3 tree(source.positions);
+  std::vector<std::uint32_t> nearest(decoded.size());
+  parallel_for(0, decoded.size(), 4096, [&](std::size_t i) {
+    float d2 = 0;
+    nearest[i] = static_cast<std::uint32_t>(tree.nearest(decoded.positions[i], &d2));
+  });
+
+  const auto blocks = static_cast<std::size_t>(block_count(h.patch_count, h.patches_per_block));
+  std::vector<std::string> block_bytes(blocks);
+  std::vector<std::array<std::uint64_t, kChannelCount>> block_channel_bytes(blocks);
+  parallel_for(0, blocks, 1, [&](std::size_t b) {
+    const std::size_t first = b * h.patches_per_block;
+    const std::size_t last = std::min<std::size_t>(first + h.patches_per_block, h.patch_count);
+    std::string sizes, streams;
+    PointCloud values;
+    AttributeReferences refs;
+    for (std::size_t k = first; k < last; ++k) {
+      values = PointCloud();
+      values.positions.assign(decoded.positions.begin() + static_cast<std::ptrdiff_t>(begin[k]),
+                              decoded.positions.begin() + static_cast<std::ptrdiff_t>(begin[k + 1]));
+      for (std::size_t i = begin[k]; i < begin[k + 1]; ++i) {
+        const std::uint32_t s = nearest[i];
+        if (params.channels & kChannelColour) values.colours.push_back(source.colours[s]);
+        if (params.channels & kChannelIntensity) values.las.intensity.push_back(source.las.intensity[s]);
+        if (params.channels & kChannelClassification) {
+          values.las.classification.push_back(source.las.classification[s]);
+        }
+        if (params.channels & kChannelReturns) {
+          values.las.return_number.push_back(source.las.return_number[s]);
+          values.las.number_of_returns.push_back(source.las.number_of_returns[s]);
+        }
+      }
+      refs.find(values.positions);
+      for (std::size_t bit = 0; bit < kChannelCount; ++bit) {
+        const auto channel = static_cast<std::uint8_t>(1u << bit);
+        if ((params.channels & channel) == 0) continue;
+        const std::string stream = encode_attribute_stream(channel, params, refs, values);
+        append_varint(sizes, stream.size());
+        streams += stream;
+        block_channel_bytes[b][bit] += stream.size();
+      }
+    }
+    block_bytes[b] = sizes + streams;
+  });
+
+  std::string table;
+  put_u8(table, params.channels);
+  put_u8(table, static_cast<std::uint8_t>((params.channels & kChannelColour) ? params.colour_step : 0));
+  put_u16(table, static_cast<std::uint16_t>((params.channels & kChannelIntensity) ? params.intensity_step : 0));
+  table.append(12, '\0');
+  std::uint64_t offset = 0;
+  for (const std::string& block : block_bytes) {
+    put_u64(table, offset);
+    put_u32(table, static_cast<std::uint32_t>(block.size()));
+    put_u32(table, crc32_of(as_bytes(block)));
+    offset += block.size();
+  }
+  const std::uint64_t payload = table.size() + offset;
+  if (payload > std::numeric_limits<std::uint32_t>::max()) {
+    return resource_exhausted("the attributes part exceeds 4 GiB");
+  }
+  std::string out;
+  out.reserve(8 + payload);
+  put_u32(out, static_cast<std::uint32_t>(payload));
+  put_u32(out, crc32_of(as_bytes(table)));
+  out += table;
+  for (const std::string& block : block_bytes) out += block;
+  if (stats != nullptr) {
+    stats->attribute_bytes = out.size();
+    for (const auto& c : block_channel_bytes) {
+      for (std::size_t bit = 0; bit < kChannelCount; ++bit) stats->channel_bytes[bit] += c[bit];
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOptions& options,
@@ -214,7 +323,8 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
   h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
                                        (source.has_colours ? kFlagColours : 0) |
                                        (metadata ? kFlagMetadata : 0) |
-                                       (duplicates_flag ? kFlagDuplicates : 0));
+                                       (duplicates_flag ? kFlagDuplicates : 0) |
+                                       (options.attributes.channels != 0 ? kFlagAttributes : 0));
   h.patch_radius = source.patch_radius;
   h.coverage_radius = source.coverage_radius;
   h.spacing = source.spacing;
@@ -343,10 +453,21 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     s.crc32 = crc32_of(as_bytes(section[i]));
     offset += s.size;
   }
+  std::string attribute_part;
+  if (options.attributes.channels != 0) {
+    // The geometry alone, as a file a reader can decode: the attributes are coded on what it
+    // decodes.
+    ContainerHeader geometry = h;
+    geometry.flags = static_cast<std::uint16_t>(h.flags & ~(kFlagMetadata | kFlagAttributes));
+    std::string bytes = encode_header(geometry);
+    for (const std::string& s : section) bytes += s;
+    SSPC_ASSIGN_OR_RETURN(attribute_part, encode_attribute_part(std::move(bytes), h, options, stats));
+  }
   std::string out = encode_header(h);
   const std::string metadata_part = metadata ? encode_metadata(source.metadata) : std::string();
-  out.reserve(offset + metadata_part.size());
+  out.reserve(offset + attribute_part.size() + metadata_part.size());
   for (const std::string& s : section) out += s;
+  out += attribute_part;
   out += metadata_part;
 
   if (stats != nullptr) {

@@ -6,10 +6,12 @@
 // any thread count (blocks are compressed in parallel but each on its own and in a fixed place).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 
+#include "format/attribute_coder.hpp"
 #include "format/container_format.hpp"
 #include "format/encoded_model.hpp"
 #include "sspc/status.hpp"
@@ -39,6 +41,12 @@ struct QuantOptions {
   // The format version to write: 3, or 2 (whose code words store duplicates as they are), for
   // comparisons and the golden files.
   int format_version = kFormatVersion;
+  // Per-point attributes coded per patch (FORMAT.md, "Attributes"): when `attributes.channels`
+  // is not 0, the values of each decoded point are those of its nearest point of
+  // `attribute_source` (which must have them, and outlive the call). Needs format version 3 and
+  // a model without code-word colours.
+  AttributeParams attributes;
+  const PointCloud* attribute_source = nullptr;
 };
 
 // Bytes per part of the written file.
@@ -55,6 +63,10 @@ struct ContainerStats {
   std::uint32_t patch_blocks = 0;
   std::uint64_t codeword_points = 0;            // stored
   std::uint64_t untrimmed_codeword_points = 0;  // before trim_unclaimed (0 when off)
+  std::uint64_t attribute_bytes = 0;  // the whole attributes part
+  // Its streams by channel bit (colour, intensity, classification, returns), without their
+  // sizes and the seek table.
+  std::array<std::uint64_t, kChannelCount> channel_bytes{};
 };
 
 // The container's bytes. Fails with kInvalidArgument for a model that breaks its own invariants

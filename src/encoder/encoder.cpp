@@ -38,10 +38,26 @@ Status check_options(const EncodeOptions& o) {
   if (o.position_bits && (*o.position_bits < 4 || *o.position_bits > 16)) {
     return invalid_argument("position bits must be 4..16, got " + std::to_string(*o.position_bits));
   }
+  if (o.colour_quality < 0 || o.colour_quality > 100) {
+    return invalid_argument("colour quality must be 0..100, got " + std::to_string(o.colour_quality));
+  }
+  if (o.intensity_step < 1 || o.intensity_step > codec::kMaxIntensityStep) {
+    return invalid_argument("intensity step must be 1..4096, got " + std::to_string(o.intensity_step));
+  }
+  if ((o.attributes & ~kAllAttributes) != 0) return invalid_argument("unknown attribute bits");
   return Status();
 }
 
 }  // namespace
+
+static_assert(kAttributeColour == codec::kChannelColour && kAttributeIntensity == codec::kChannelIntensity &&
+              kAttributeClassification == codec::kChannelClassification &&
+              kAttributeReturns == codec::kChannelReturns);
+
+int colour_step_for_quality(int quality) {
+  const int q = std::clamp(quality, 0, 100);
+  return static_cast<int>(std::lround(std::exp2(static_cast<double>(100 - q) * 6.0 / 100.0)));
+}
 
 StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
                              const EncodeOptions& options) {
@@ -73,6 +89,13 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   codec::BuildStats build_stats;
   SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
   model.has_normals = model.has_normals && options.store_normals;
+  // Attributes are coded per patch, never per code word (a code word's colours would show on
+  // every instance of it).
+  model.has_colours = false;
+  codec::AttributeParams attributes;
+  attributes.channels = static_cast<std::uint8_t>(codec::channels_present(cloud) & options.attributes);
+  attributes.colour_step = colour_step_for_quality(options.colour_quality);
+  attributes.intensity_step = options.intensity_step;
   // Positions are coded as they are, local to the cloud's origin; the file keeps the origin.
   model.metadata.origin = cloud.origin;
   model.metadata.cloud = cloud.metadata;
@@ -97,6 +120,8 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   }
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;
+  quant.attributes = attributes;
+  quant.attribute_source = &cloud;
   // The transforms' grids follow the code words' grid: a rotation error at the patch radius
   // below half its step (the worst case measured in QuantiseTest is about 3.7·R / 2^bits, so
   // two bits more than the positions), and translations on half its step.
@@ -129,6 +154,13 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.file_bytes = written.file_bytes;
   stats.codebook_bytes = written.codebook_bytes;
   stats.patch_bytes = written.patch_bytes;
+  stats.attribute_bytes = written.attribute_bytes;
+  stats.colour_bytes = written.channel_bytes[0];
+  stats.intensity_bytes = written.channel_bytes[1];
+  stats.classification_bytes = written.channel_bytes[2];
+  stats.returns_bytes = written.channel_bytes[3];
+  stats.attributes = attributes.channels;
+  stats.colour_step = (attributes.channels & codec::kChannelColour) ? attributes.colour_step : 0;
   stats.bits_per_point = 8.0 * static_cast<double>(written.file_bytes) / static_cast<double>(stats.points);
   return stats;
 }

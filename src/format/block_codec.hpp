@@ -5,6 +5,7 @@
 // payload's size before anything is allocated, and every byte read is bounds-checked.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -37,6 +38,9 @@ struct DecodedPatches {
   std::vector<std::uint32_t> codeword;
   std::vector<Eigen::Matrix3f> rotation;  // of world_from_codeword
   std::vector<Vec3f> centre;              // translation of world_from_codeword = region centre
+  // With an attributes part: each patch's streams, indexed by channel bit (empty when absent),
+  // views of the file (FORMAT.md, "Attributes").
+  std::vector<std::array<std::span<const std::byte>, 4>> attribute_streams;
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(codeword.size()); }
 };

@@ -17,6 +17,7 @@
 #include "core/mapped_file.hpp"
 #include "core/parallel.hpp"
 #include "format/block_cache.hpp"
+#include "format/attribute_coder.hpp"
 #include "format/block_index.hpp"
 #include "format/container_reader.hpp"
 #include "format/region_decoder.hpp"
@@ -129,10 +130,38 @@ class PreloadedSource final : public BlockSource {
   }
 };
 
+template <typename T>
+void append_range(std::vector<T>& dst, const std::vector<T>& src) {
+  dst.insert(dst.end(), src.begin(), src.end());
+}
+
+// The per-point arrays a decode fills: positions, normals and colours, and the attributes
+// part's LAS fields.
 void append(PointCloud& dst, const PointCloud& src) {
-  dst.positions.insert(dst.positions.end(), src.positions.begin(), src.positions.end());
-  dst.normals.insert(dst.normals.end(), src.normals.begin(), src.normals.end());
-  dst.colours.insert(dst.colours.end(), src.colours.begin(), src.colours.end());
+  append_range(dst.positions, src.positions);
+  append_range(dst.normals, src.normals);
+  append_range(dst.colours, src.colours);
+  append_range(dst.las.intensity, src.las.intensity);
+  append_range(dst.las.classification, src.las.classification);
+  append_range(dst.las.return_number, src.las.return_number);
+  append_range(dst.las.number_of_returns, src.las.number_of_returns);
+}
+
+// `src`'s points inside `box` (inclusive), with their attributes, appended to `dst`.
+void append_inside(PointCloud& dst, const PointCloud& src, const Box3f& box) {
+  auto keep = [&](const auto& from, auto& to) {
+    if (from.empty()) return;
+    for (std::size_t i = 0; i < src.positions.size(); ++i) {
+      if (box.contains(src.positions[i])) to.push_back(from[i]);
+    }
+  };
+  keep(src.positions, dst.positions);
+  keep(src.normals, dst.normals);
+  keep(src.colours, dst.colours);
+  keep(src.las.intensity, dst.las.intensity);
+  keep(src.las.classification, dst.las.classification);
+  keep(src.las.return_number, dst.las.return_number);
+  keep(src.las.number_of_returns, dst.las.number_of_returns);
 }
 
 }  // namespace
@@ -182,8 +211,37 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
       }
     }
   }
-  codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, overlap,
-                    clip, out);
+  if (own->attribute_streams.empty() || overlap) {
+    codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, overlap,
+                      clip, out);
+    return Status();
+  }
+  // Attributes are coded for the patch's whole region in decode order (FORMAT.md,
+  // "Attributes"): decode them for all of it, then clip.
+  thread_local PointCloud part;
+  thread_local codec::AttributeReferences refs;
+  part.positions.clear();
+  part.normals.clear();
+  part.colours.clear();
+  part.las.clear();
+  codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, false,
+                    nullptr, part);
+  refs.find(part.positions);
+  const codec::AttributeParams& params = reader.attributes();
+  for (std::size_t bit = 0; bit < codec::kChannelCount; ++bit) {
+    const auto channel = static_cast<std::uint8_t>(1u << bit);
+    if ((params.channels & channel) == 0) continue;
+    Status s = codec::decode_attribute_stream(channel, params, refs,
+                                              own->attribute_streams[local][bit], part);
+    if (!s.ok()) {
+      return Status(s.code(), reader.name() + ": patch " + std::to_string(k) + ": " + s.message());
+    }
+  }
+  if (clip != nullptr) {
+    append_inside(out, part, *clip);
+  } else {
+    append(out, part);
+  }
   return Status();
 }
 
@@ -362,7 +420,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
   std::size_t total = 0;
   for (const PointCloud& p : parts) total += p.size();
   PointCloud out;
-  out.reserve(total, reader.header().has_normals(), reader.header().has_colours());
+  out.reserve(total, reader.header().has_normals(), info().has_colours);
   for (PointCloud& p : parts) {
     append(out, p);
     p = PointCloud();
@@ -404,7 +462,12 @@ ModelInfo CompressedModel::info() const {
   ModelInfo m;
   m.version = h.version;
   m.has_normals = h.has_normals();
-  m.has_colours = h.has_colours();
+  const codec::AttributeParams& a = reader.attributes();
+  m.attributes = a.channels;
+  m.has_colours = h.has_colours() || (a.channels & codec::kChannelColour) != 0;
+  m.colour_step = (a.channels & codec::kChannelColour) ? a.colour_step : 0;
+  m.intensity_step = (a.channels & codec::kChannelIntensity) ? a.intensity_step : 0;
+  m.attribute_bytes = reader.attribute_part_bytes();
   m.patch_radius = h.patch_radius;
   m.coverage_radius = h.coverage_radius;
   m.spacing = h.spacing;

@@ -24,7 +24,13 @@ inline constexpr std::uint16_t kFlagMetadata = 1u << 2;  // the metadata part fo
 // Version 3 and later: code words store each occupied cell's point count (sspc encode
 // --keep-duplicates); without it a cell holds one point.
 inline constexpr std::uint16_t kFlagDuplicates = 1u << 3;
-inline constexpr std::uint16_t kKnownFlags = kFlagNormals | kFlagColours | kFlagMetadata | kFlagDuplicates;
+// Revision 3.1: the attributes part follows section 4 (FORMAT.md, "Attributes"); excludes
+// kFlagColours.
+inline constexpr std::uint16_t kFlagAttributes = 1u << 4;
+inline constexpr std::uint16_t kKnownFlags =
+    kFlagNormals | kFlagColours | kFlagMetadata | kFlagDuplicates | kFlagAttributes;
+inline constexpr std::size_t kAttributeDescriptorSize = 16;  // after the part's 8-byte prefix
+inline constexpr std::size_t kAttributeSeekEntrySize = 16;
 
 inline constexpr std::size_t kHeaderSize = 196;
 inline constexpr std::size_t kHeaderCrcOffset = 192;
@@ -100,6 +106,7 @@ struct ContainerHeader {
   bool has_colours() const { return (flags & kFlagColours) != 0; }
   bool has_duplicates() const { return (flags & kFlagDuplicates) != 0; }
   bool has_metadata() const { return (flags & kFlagMetadata) != 0; }
+  bool has_attributes() const { return (flags & kFlagAttributes) != 0; }
 };
 
 // One block's place in its section, as the seek tables store it.

@@ -10,6 +10,7 @@
 
 #include <zstd.h>
 
+#include "core/byte_reader.hpp"
 #include "format/checksum.hpp"
 
 namespace sspc::codec {
@@ -91,6 +92,10 @@ Status read_header_fields(const std::byte* p, std::uint16_t version, const Failu
   h.flags = le16(p + 10);
   if ((h.flags & ~kKnownFlags) != 0) return fail(10, "unknown flags " + hex32(h.flags));
   if (h.has_duplicates() && version < 3) return fail(10, "flag bit 3 (duplicates) before version 3");
+  if (h.has_attributes() && version < 3) return fail(10, "flag bit 4 (attributes) before version 3");
+  if (h.has_attributes() && h.has_colours()) {
+    return fail(10, "flag bits 1 (code-word colours) and 4 (attributes) are exclusive");
+  }
   if (le32(p + 12) != kHeaderSize) return fail(12, "header size is not 196");
   h.patch_radius = lef32(p + 16);
   h.coverage_radius = lef32(p + 20);
@@ -278,6 +283,79 @@ Status read_seek_entries(std::span<const std::byte> bytes, const ContainerHeader
   return Status();
 }
 
+// Step 6 (flag bit 4): the attributes part at `start`: its prefix, descriptor and seek table
+// (FORMAT.md, "Attributes"). Returns where the part ends.
+StatusOr<std::uint64_t> read_attribute_part(std::span<const std::byte> bytes, std::uint64_t start,
+                                            std::uint64_t blocks, const Failure& fail,
+                                            AttributeParams& params,
+                                            std::vector<BlockEntry>& entries) {
+  const std::uint64_t left = bytes.size() - start;
+  if (left < 8) return fail(start, "truncated attributes part");
+  const std::byte* p = bytes.data() + start;
+  const std::uint64_t size = le32(p);
+  const std::uint64_t table = kAttributeDescriptorSize + kAttributeSeekEntrySize * blocks;
+  if (size > left - 8) {
+    return fail(start, "attributes part of " + std::to_string(size) + " bytes, " +
+                           std::to_string(left - 8) + " left in the file");
+  }
+  if (size < table) {
+    return fail(start, "attributes part of " + std::to_string(size) + " bytes cannot hold " +
+                           std::to_string(blocks) + " seek entries");
+  }
+  const std::uint32_t crc = crc32_of(bytes.subspan(start + 8, table));
+  if (crc != le32(p + 4)) {
+    return fail(start + 4, "attributes table CRC32 mismatch (stored " + hex32(le32(p + 4)) +
+                               ", computed " + hex32(crc) + ")");
+  }
+  params.channels = static_cast<std::uint8_t>(p[8]);
+  params.colour_step = static_cast<int>(p[9]);
+  params.intensity_step = le16(p + 10);
+  if (params.channels == 0 || (params.channels & ~kKnownChannels) != 0) {
+    return fail(start + 8, "bad attribute channels " + hex32(params.channels));
+  }
+  const bool colour = (params.channels & kChannelColour) != 0;
+  const bool intensity = (params.channels & kChannelIntensity) != 0;
+  if (colour ? params.colour_step < 1 || params.colour_step > kMaxColourStep
+             : params.colour_step != 0) {
+    return fail(start + 9, "bad colour_step " + std::to_string(params.colour_step));
+  }
+  if (intensity ? params.intensity_step < 1 || params.intensity_step > kMaxIntensityStep
+                : params.intensity_step != 0) {
+    return fail(start + 10, "bad intensity_step " + std::to_string(params.intensity_step));
+  }
+  for (std::uint64_t i = 12; i < 24; ++i) {
+    if (p[i] != std::byte{0}) return fail(start + i, "attributes reserved byte is not 0");
+  }
+  const std::uint64_t data_start = start + 8 + table;
+  const std::uint64_t data_size = size - table;
+  entries.resize(blocks);
+  std::uint64_t next = 0;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    const std::uint64_t at = start + 24 + b * kAttributeSeekEntrySize;
+    const std::byte* e = bytes.data() + at;
+    BlockEntry& x = entries[b];
+    const std::uint64_t offset = le64(e);
+    x.stored_size = le32(e + 8);
+    x.raw_size = x.stored_size;
+    x.crc32 = le32(e + 12);
+    const std::string what = "attributes, block " + std::to_string(b);
+    if (offset != next) {
+      return fail(at, what + ": offset " + std::to_string(offset) + ", expected " +
+                          std::to_string(next));
+    }
+    if (x.stored_size == 0 || x.stored_size > data_size - next) {
+      return fail(at + 8, what + ": bad size " + std::to_string(x.stored_size));
+    }
+    x.offset = data_start + offset;
+    next += x.stored_size;
+  }
+  if (next != data_size) {
+    return fail(data_start + next,
+                "attributes: " + std::to_string(data_size - next) + " bytes after the last block");
+  }
+  return start + 8 + size;
+}
+
 }  // namespace
 
 StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes,
@@ -293,7 +371,14 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
   SSPC_RETURN_IF_ERROR(read_header_fields(bytes.data(), *version, fail, h));
   auto sections_end = read_section_table(bytes, fail, h);
   if (!sections_end.ok()) return sections_end.status();
-  const std::uint64_t end = *sections_end;
+  std::uint64_t end = *sections_end;
+  if (h.has_attributes()) {
+    auto attributes_end = read_attribute_part(bytes, end, block_count(h.patch_count, h.patches_per_block),
+                                              fail, r.attributes_, r.attribute_blocks_);
+    if (!attributes_end.ok()) return attributes_end.status();
+    r.attribute_part_bytes_ = *attributes_end - end;
+    end = *attributes_end;
+  }
   if (h.has_metadata()) {
     auto metadata = decode_metadata(bytes.subspan(static_cast<std::size_t>(end)), end, r.name_);
     if (!metadata.ok()) return metadata.status();
@@ -386,6 +471,51 @@ Status ContainerReader::read_patches(std::size_t block, DecodedPatches& out) con
   SSPC_RETURN_IF_ERROR(load_block(SectionKind::kPatchBlocks, block, entry, scratch, payload));
   Status s = decode_patch_block(payload, entry, header_, true, out);
   if (!s.ok()) return block_error(SectionKind::kPatchBlocks, block, entry, s);
+  if (header_.has_attributes()) return read_attribute_streams(block, out);
+  out.attribute_streams.clear();
+  return Status();
+}
+
+Status ContainerReader::read_attribute_streams(std::size_t block, DecodedPatches& out) const {
+  const BlockEntry& entry = attribute_blocks_[block];
+  auto fail = [&](std::uint64_t at, const std::string& what) {
+    return corrupt(name_ + ": attributes, block " + std::to_string(block) + " (patches " +
+                   std::to_string(out.first) + "–" + std::to_string(out.first + out.count() - 1) +
+                   ", byte " + std::to_string(at) + "): " + what);
+  };
+  const std::span<const std::byte> stored = bytes_.subspan(entry.offset, entry.stored_size);
+  const std::uint32_t crc = crc32_of(stored);
+  if (crc != entry.crc32) {
+    return fail(entry.offset, "CRC32 mismatch (stored " + hex32(entry.crc32) + ", computed " +
+                                  hex32(crc) + ")");
+  }
+  ByteReader in(stored, entry.offset);
+  out.attribute_streams.assign(out.count(), {});
+  std::vector<std::uint64_t> sizes;
+  for (std::uint32_t k = 0; k < out.count(); ++k) {
+    for (int c = 0; c < kChannelCount; ++c) {
+      if ((attributes_.channels & (1u << c)) == 0) continue;
+      std::uint64_t n = 0;
+      if (!in.read_varint(n).ok() || n > in.remaining()) {
+        return fail(in.offset(), "bad stream size");
+      }
+      sizes.push_back(n);
+    }
+  }
+  std::size_t at = in.position();
+  std::size_t i = 0;
+  for (std::uint32_t k = 0; k < out.count(); ++k) {
+    for (int c = 0; c < kChannelCount; ++c) {
+      if ((attributes_.channels & (1u << c)) == 0) continue;
+      const std::uint64_t n = sizes[i++];
+      if (n > stored.size() - at) return fail(entry.offset + at, "streams run past the block");
+      out.attribute_streams[k][static_cast<std::size_t>(c)] = stored.subspan(at, n);
+      at += n;
+    }
+  }
+  if (at != stored.size()) {
+    return fail(entry.offset + at, std::to_string(stored.size() - at) + " bytes after the last stream");
+  }
   return Status();
 }
 

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "format/attribute_coder.hpp"
 #include "format/block_codec.hpp"
 #include "format/container_format.hpp"
 #include "format/metadata_section.hpp"
@@ -35,6 +36,9 @@ class ContainerReader {
   const std::string& name() const { return name_; }
   // The metadata part; origin 0 and nothing else for a file without one.
   const ModelMetadata& metadata() const { return metadata_; }
+  // The attributes part's parameters; channels 0 for a file without one.
+  const AttributeParams& attributes() const { return attributes_; }
+  std::uint64_t attribute_part_bytes() const { return attribute_part_bytes_; }
 
   Status read_codewords(std::size_t block, DecodedCodewords& out) const;
   Status read_patches(std::size_t block, DecodedPatches& out) const;
@@ -56,6 +60,10 @@ class ContainerReader {
   std::vector<BlockEntry> codebook_blocks_;
   std::vector<BlockEntry> patch_blocks_;
   ModelMetadata metadata_;
+  AttributeParams attributes_;
+  std::vector<BlockEntry> attribute_blocks_;  // offset from the file's start; raw_size unused
+  std::uint64_t attribute_part_bytes_ = 0;
+  Status read_attribute_streams(std::size_t block, DecodedPatches& out) const;
 };
 
 }  // namespace sspc::codec

@@ -11,6 +11,7 @@
 #include "cli_util.hpp"
 #include "double_cloud_files.hpp"
 #include "sspc/io.hpp"
+#include "sspc/neighbours.hpp"
 #include "test_util.hpp"
 
 namespace sspc {
@@ -64,9 +65,30 @@ TEST(CliLas, DroppedFieldsAreNamedAndLazIsRefusedWithTheWayOut) {
   const CliRun ply = sspc(dir, "convert " + las.string() + " " + (dir.path() / "o.ply").string());
   ASSERT_EQ(ply.exit_code, 0) << ply.err;
   EXPECT_NE(ply.err.find("dropped intensity, classification"), std::string::npos) << ply.err;
+  // encode keeps them (per point, FORMAT.md "Attributes") unless told not to, and then names them.
   const CliRun encode =
       sspc(dir, "encode -q " + las.string() + " " + (dir.path() / "o.sspc").string());
-  EXPECT_NE(encode.err.find("dropped intensity, classification"), std::string::npos) << encode.err;
+  ASSERT_EQ(encode.exit_code, 0) << encode.err;
+  EXPECT_EQ(encode.err.find("not kept"), std::string::npos) << encode.err;
+  const CliRun none = sspc(dir, "encode -q --attributes none " + las.string() + " " +
+                                    (dir.path() / "n.sspc").string());
+  EXPECT_NE(none.err.find("not kept in the .sspc model: intensity, classification"),
+            std::string::npos)
+      << none.err;
+  const CliRun decode = sspc(dir, "decode -q " + (dir.path() / "o.sspc").string() + " " +
+                                      (dir.path() / "back.las").string());
+  ASSERT_EQ(decode.exit_code, 0) << decode.err;
+  StatusOr<PointCloud> back = read_point_cloud(dir.path() / "back.las");
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  ASSERT_EQ(back->las.intensity.size(), back->size());
+  ASSERT_EQ(back->las.classification.size(), back->size());
+  const KdTree3 tree(cloud.positions);
+  for (std::size_t i = 0; i < back->size(); ++i) {
+    float d2 = 0;
+    const std::uint32_t s = tree.nearest(back->positions[i], &d2);
+    EXPECT_EQ(back->las.intensity[i], cloud.las.intensity[s]) << i;
+    EXPECT_EQ(back->las.classification[i], cloud.las.classification[s]) << i;
+  }
 
   std::string bytes = slurp(las);
   bytes[104] = static_cast<char>(bytes[104] | 0x80);  // LASzip's compressed bit
