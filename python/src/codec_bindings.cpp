@@ -47,6 +47,12 @@ py::dict encode_stats(const EncodeStats& s, int level, double seconds) {
   d["file_bytes"] = s.file_bytes;
   d["codebook_bytes"] = s.codebook_bytes;
   d["patch_bytes"] = s.patch_bytes;
+  d["attribute_bytes"] = s.attribute_bytes;
+  d["colour_bytes"] = s.colour_bytes;
+  d["intensity_bytes"] = s.intensity_bytes;
+  d["classification_bytes"] = s.classification_bytes;
+  d["returns_bytes"] = s.returns_bytes;
+  d["colour_step"] = s.colour_step;
   d["bits_per_point"] = s.bits_per_point;
   d["normals_seconds"] = s.seconds_normals;
   d["centres_seconds"] = s.seconds_centres;
@@ -88,10 +94,40 @@ StatusOr<std::string> read_bytes(const std::filesystem::path& path) {
   return std::move(bytes).str();
 }
 
+// "all", "none", or names among colour, intensity, classification, returns (a list or a
+// comma-separated string), as `sspc encode --attributes`.
+unsigned attribute_bits(const py::object& value) {
+  std::vector<std::string> names;
+  if (py::isinstance<py::str>(value)) {
+    const std::string text = value.cast<std::string>();
+    if (text == "all") return kAllAttributes;
+    if (text == "none") return 0;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+      const std::size_t end = std::min(text.find(',', start), text.size());
+      names.push_back(text.substr(start, end - start));
+      start = end + 1;
+    }
+  } else {
+    for (const py::handle item : value) names.push_back(py::str(item).cast<std::string>());
+  }
+  unsigned bits = 0;
+  for (const std::string& name : names) {
+    if (name == "colour") bits |= kAttributeColour;
+    else if (name == "intensity") bits |= kAttributeIntensity;
+    else if (name == "classification") bits |= kAttributeClassification;
+    else if (name == "returns") bits |= kAttributeReturns;
+    else throw py::value_error("attributes: unknown attribute '" + name +
+                               "' (all, none, or colour, intensity, classification, returns)");
+  }
+  return bits;
+}
+
 py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
                         int level, std::optional<int> patch_points, std::optional<float> epsilon,
                         std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
-                        bool full_spheres, bool keep_duplicates, const std::string& normals, const py::object& viewpoint,
+                        bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
+                        int intensity_step, const std::string& normals, const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
   PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
   check(cloud.validate());
@@ -105,6 +141,9 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   options.store_normals = store_normals;
   options.full_spheres = full_spheres;
   options.keep_duplicates = keep_duplicates;
+  options.attributes = attribute_bits(attributes);
+  options.colour_quality = colour_quality;
+  options.intensity_step = intensity_step;
   options.normals.mode = normal_mode(normals);
   if (!viewpoint.is_none()) options.normals.viewpoint = vec3(viewpoint, "viewpoint");
   options.seed = seed;
@@ -133,6 +172,12 @@ py::dict model_info(const CompressedModel& model) {
   d["file_bytes"] = m.file_bytes;
   d["normals"] = m.has_normals;
   d["colours"] = m.has_colours;
+  d["intensity"] = (m.attributes & kAttributeIntensity) != 0;
+  d["classification"] = (m.attributes & kAttributeClassification) != 0;
+  d["returns"] = (m.attributes & kAttributeReturns) != 0;
+  d["colour_step"] = m.colour_step;
+  d["intensity_step"] = m.intensity_step;
+  d["attribute_bytes"] = m.attribute_bytes;
   d["source_points"] = m.source_points;
   d["patches"] = m.patches;
   d["codewords"] = m.codewords;
@@ -300,7 +345,9 @@ void bind_codec(py::module_& m) {
   m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), py::arg("level") = 5,
         py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(), py::arg("tau") = py::none(),
         py::arg("step") = py::none(), py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
-        py::arg("keep_duplicates") = false, py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
+        py::arg("keep_duplicates") = false, py::arg("attributes") = "all",
+        py::arg("colour_quality") = EncodeOptions().colour_quality, py::arg("intensity_step") = 1,
+        py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
         py::arg("progress") = py::none(), R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
 
@@ -314,6 +361,9 @@ patch_points (8..65536), epsilon, tau, step (grid step in spacings), position_bi
 single fields of the level;
 store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
 keep_duplicates stores every point, also several in one cell of the code words' grid;
+attributes ('all', 'none', or names among colour, intensity, classification, returns) chooses the
+per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
+intensity_step 1..4096 (1: lossless) set their rates;
 normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint
 orients estimated normals towards a point; seed; threads > 0 caps the worker threads.
 

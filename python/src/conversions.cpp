@@ -130,6 +130,42 @@ py::array rgb_rows_view(const std::vector<Rgb8>& rows, py::handle owner) {
   return a;
 }
 
+template <typename T>
+std::vector<T> integer_column(py::handle array, std::string_view what, std::int64_t max) {
+  const py::array given = py::array::ensure(array);
+  if (!given || given.ndim() != 1) {
+    PyErr_Clear();
+    throw py::type_error(std::string(what) + " must be a 1-D array of integers");
+  }
+  if (const char kind = given.dtype().kind(); kind != 'i' && kind != 'u') {
+    throw py::type_error(std::string(what) + " must be an array of integers");
+  }
+  auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(given);
+  if (!v) throw py::error_already_set();
+  const auto n = static_cast<std::size_t>(v.shape(0));
+  std::vector<T> out(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int64_t x = v.data()[i];
+    if (x < 0 || x > max) {
+      throw py::value_error(std::string(what) + " must lie in 0.." + std::to_string(max) + ", got " +
+                            std::to_string(x) + " at row " + std::to_string(i));
+    }
+    out[i] = static_cast<T>(x);
+  }
+  return out;
+}
+template std::vector<std::uint8_t> integer_column(py::handle, std::string_view, std::int64_t);
+template std::vector<std::uint16_t> integer_column(py::handle, std::string_view, std::int64_t);
+
+template <typename T>
+py::array column_view(const std::vector<T>& values, py::handle owner) {
+  py::array_t<T> a({static_cast<py::ssize_t>(values.size())}, values.data(), owner);
+  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return a;
+}
+template py::array column_view(const std::vector<std::uint8_t>&, py::handle);
+template py::array column_view(const std::vector<std::uint16_t>&, py::handle);
+
 PointCloud cloud_from(py::handle cloud_or_positions, std::string_view what) {
   if (py::isinstance<PointCloud>(cloud_or_positions)) return cloud_or_positions.cast<const PointCloud&>();
   PointCloud cloud;

@@ -67,6 +67,12 @@ Vec3f vec3(py::handle value, std::string_view what);
 // holds the vector): no copy.
 py::array float_rows_view(const std::vector<Vec3f>& rows, py::handle owner);
 py::array rgb_rows_view(const std::vector<Rgb8>& rows, py::handle owner);
+// A 1-D array of integers in 0..max (one per point: LAS intensity, classification, returns).
+template <typename T>
+std::vector<T> integer_column(py::handle array, std::string_view what, std::int64_t max);
+// A read-only 1-D view of `values`, kept alive by `owner`.
+template <typename T>
+py::array column_view(const std::vector<T>& values, py::handle owner);
 
 // Moves `values` to the heap and returns an array over them that owns them through a capsule:
 // no copy. `shape` and `strides` in elements of T's scalar type.

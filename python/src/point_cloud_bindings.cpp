@@ -12,11 +12,24 @@
 namespace sspc::python {
 namespace {
 
-PointCloud make_cloud(const py::object& positions, const py::object& normals, const py::object& colours) {
+PointCloud make_cloud(const py::object& positions, const py::object& normals, const py::object& colours,
+                      const py::object& intensity, const py::object& classification,
+                      const py::object& return_number, const py::object& number_of_returns) {
   PointCloud cloud;
   cloud.positions = vec3_rows(positions, "positions");
   if (!normals.is_none()) cloud.normals = vec3_rows(normals, "normals");
   if (!colours.is_none()) cloud.colours = rgb_rows(colours, "colours");
+  if (!intensity.is_none()) cloud.las.intensity = integer_column<std::uint16_t>(intensity, "intensity", 65535);
+  if (!classification.is_none()) {
+    cloud.las.classification = integer_column<std::uint8_t>(classification, "classification", 255);
+  }
+  if (return_number.is_none() != number_of_returns.is_none()) {
+    throw py::value_error("return_number and number_of_returns go together");
+  }
+  if (!return_number.is_none()) {
+    cloud.las.return_number = integer_column<std::uint8_t>(return_number, "return_number", 15);
+    cloud.las.number_of_returns = integer_column<std::uint8_t>(number_of_returns, "number_of_returns", 15);
+  }
   // validate() checks the lengths agree and every coordinate is finite (float64 values beyond
   // float32's range arrive here as infinities).
   check(cloud.validate());
@@ -27,6 +40,7 @@ std::string repr(const PointCloud& cloud) {
   std::string text = "<sspc.PointCloud " + std::to_string(cloud.size()) + " points";
   if (cloud.has_normals()) text += ", normals";
   if (cloud.has_colours()) text += ", colours";
+  if (!cloud.las.empty()) text += ", " + cloud.las.names();
   return text + ">";
 }
 
@@ -68,17 +82,21 @@ void bind_point_cloud(py::module_& m) {
   py::class_<PointCloud>(m, "PointCloud", R"doc(
 A point cloud: float32 positions, optional unit normals, optional 8-bit RGB colours.
 
-PointCloud(positions, normals=None, colours=None)
+PointCloud(positions, normals=None, colours=None, *, intensity=None, classification=None,
+           return_number=None, number_of_returns=None)
 
 positions and normals are (N, 3) arrays of any real dtype, converted to float32; colours is an
-(N, 3) array of integers in 0..255. Building one copies each array once into the library's
+(N, 3) array of integers in 0..255; the LAS fields are 1-D integer arrays (intensity 0..65535,
+classification 0..255, returns 0..15), which `sspc.encode` keeps per point. Building one copies each array once into the library's
 layout. Raises TypeError for a wrong dtype and ValueError for a wrong shape, lengths that
 disagree or a coordinate that is not finite.
 
-The attributes .positions, .normals and .colours are read-only numpy views of the cloud's own
+The attributes .positions, .normals, .colours and the LAS fields are read-only numpy views of the cloud's own
 memory (no copy), valid as long as any of them or the cloud is alive; copy one to modify it.)doc")
       .def(py::init(&make_cloud), py::arg("positions"), py::arg("normals") = py::none(),
-           py::arg("colours") = py::none())
+           py::arg("colours") = py::none(), py::kw_only(), py::arg("intensity") = py::none(),
+           py::arg("classification") = py::none(), py::arg("return_number") = py::none(),
+           py::arg("number_of_returns") = py::none())
       .def_property_readonly(
           "positions", [](py::object self) { return float_rows_view(self.cast<const PointCloud&>().positions, self); },
           "(N, 3) float32, read-only view of the cloud's memory.")
@@ -98,6 +116,34 @@ memory (no copy), valid as long as any of them or the cloud is alive; copy one t
             return rgb_rows_view(cloud.colours, self);
           },
           "(N, 3) uint8 RGB, read-only view, or None when the cloud has none.")
+      .def_property_readonly(
+          "intensity",
+          [](py::object self) -> py::object {
+            const auto& v = self.cast<const PointCloud&>().las.intensity;
+            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
+          },
+          "(N,) uint16 LAS intensity, read-only view, or None.")
+      .def_property_readonly(
+          "classification",
+          [](py::object self) -> py::object {
+            const auto& v = self.cast<const PointCloud&>().las.classification;
+            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
+          },
+          "(N,) uint8 LAS classification, read-only view, or None.")
+      .def_property_readonly(
+          "return_number",
+          [](py::object self) -> py::object {
+            const auto& v = self.cast<const PointCloud&>().las.return_number;
+            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
+          },
+          "(N,) uint8 LAS return number, read-only view, or None.")
+      .def_property_readonly(
+          "number_of_returns",
+          [](py::object self) -> py::object {
+            const auto& v = self.cast<const PointCloud&>().las.number_of_returns;
+            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
+          },
+          "(N,) uint8 LAS number of returns, read-only view, or None.")
       .def("__len__", &PointCloud::size, "The number of points.")
       .def("__repr__", &repr)
       .def(

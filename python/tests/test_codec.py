@@ -143,3 +143,53 @@ def test_indices_are_checked(bunny_model):
         bunny_model.patch(-1)
     with pytest.raises(IndexError):
         bunny_model.codeword(bunny_model.codeword_count)
+
+
+def _attributed(bumps):
+    """The bumps with colours, intensity, classification and returns that follow the place."""
+    p = bumps.positions.astype(np.float64)
+    colours = np.stack([p[:, 0] * 200 + 20, p[:, 1] * 200 + 30, np.full(len(p), 90.0)], axis=1)
+    return sspc.PointCloud(
+        bumps.positions, bumps.normals, np.clip(np.round(colours), 0, 255).astype(np.uint8),
+        intensity=(p[:, 0] * 60000).astype(np.uint16),
+        classification=np.where(p[:, 2] > 0.02, 5, 2).astype(np.uint8),
+        return_number=np.ones(len(p), dtype=np.uint8),
+        number_of_returns=np.where(p[:, 1] > 0.5, 2, 1).astype(np.uint8),
+    )
+
+
+def test_per_point_attributes_come_back_at_their_place(bumps):
+    cloud = _attributed(bumps)
+    assert cloud.intensity.dtype == np.uint16 and cloud.classification.dtype == np.uint8
+    data = sspc.encode(cloud, None, colour_quality=100)
+    model = sspc.CompressedModel.from_bytes(data)
+    info = model.info()
+    assert info["colours"] and info["intensity"] and info["classification"] and info["returns"]
+    assert info["colour_step"] == 1 and info["attribute_bytes"] > 0
+    decoded = model.decode_all()
+    # Each decoded point carries the values of its nearest source point, losslessly here.
+    src = cloud.positions.astype(np.float64)
+    out = decoded.positions.astype(np.float64)
+    nearest = np.array([np.argmin(((src - q) ** 2).sum(axis=1)) for q in out])
+    np.testing.assert_array_equal(decoded.colours, cloud.colours[nearest])
+    np.testing.assert_array_equal(decoded.intensity, cloud.intensity[nearest])
+    np.testing.assert_array_equal(decoded.classification, cloud.classification[nearest])
+    np.testing.assert_array_equal(decoded.number_of_returns, cloud.number_of_returns[nearest])
+
+
+def test_attribute_options_choose_what_is_kept_and_its_rate(bumps, tmp_path):
+    cloud = _attributed(bumps)
+    fine = sspc.encode(cloud, tmp_path / "fine.sspc", colour_quality=100)
+    coarse = sspc.encode(cloud, tmp_path / "coarse.sspc", colour_quality=20)
+    assert coarse["colour_bytes"] < fine["colour_bytes"]
+    assert fine["classification_bytes"] > 0 and fine["colour_step"] == 1
+    only = sspc.CompressedModel.open(
+        tmp_path / "only.sspc" if sspc.encode(cloud, tmp_path / "only.sspc", attributes=["classification"]) else None)
+    assert only.info()["classification"] and not only.info()["colours"]
+    assert only.decode_all().colours is None
+    none = sspc.CompressedModel.from_bytes(sspc.encode(cloud, None, attributes="none"))
+    assert none.info()["attribute_bytes"] == 0
+    with pytest.raises(ValueError, match="unknown attribute 'color'"):
+        sspc.encode(cloud, None, attributes="color")
+    with pytest.raises(ValueError, match="0..255"):
+        sspc.PointCloud(cloud.positions, classification=np.full(len(cloud), 256))
