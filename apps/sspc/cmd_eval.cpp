@@ -1,4 +1,5 @@
-// sspc eval REF TEST: distortion of TEST against the reference REF (paper §6, MPEG D1/D2).
+// sspc eval REF TEST: distortion of TEST against the reference REF (paper §6, MPEG D1/D2, and
+// colour PSNR when both files have colours).
 // The formulas are in docs/METRICS.md.
 #include <cmath>
 #include <cstdio>
@@ -31,6 +32,7 @@ Json direction(const DirectedError& e) {
   json["hausdorff"] = e.hausdorff;
   json["d1_mse"] = e.mse_d1;
   if (e.has_d2) json["d2_mse"] = e.mse_d2;
+  if (e.has_colour) json["colour_mse"] = e.mse_colour;
   return json;
 }
 
@@ -49,7 +51,8 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
     return report_usage_error(invalid_argument("'-' (stdin) names both clouds; stdin can be read only once"));
   }
   auto progress = make_progress(global);
-  // Two reads, normals for REF when it has none, three passes (four with D2).
+  // Two reads, normals for REF when it has none, three passes (four with D2, one more with
+  // colours).
   progress_stages(progress.get(), 2 + 4);
   // Both files' own values in double, about one origin: far from the origin float32 would
   // compare rounding instead of the clouds (docs/METRICS.md, "Coordinates far from the origin").
@@ -77,7 +80,9 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
     const Status status = ensure_normals(*ref, normal_options);
     if (!status.ok()) return report_failure(status.with_context(options.ref));
   }
-  progress_stages(progress.get(), 2 + (ref_had_normals || options.no_estimate_normals ? 0 : 3) + (ref->has_normals() ? 4 : 3));
+  const bool colours = ref->has_colours() && test->has_colours();
+  progress_stages(progress.get(), 2 + (ref_had_normals || options.no_estimate_normals ? 0 : 3) +
+                                      (ref->has_normals() ? 4 : 3) + (colours ? 1 : 0));
   // Normal errors compare the files' own normals, never estimated ones.
   const bool compare_normals = ref_had_normals && test->has_normals();
   if (!compare_normals && test->has_normals()) test->normals.clear();
@@ -118,6 +123,10 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
       json["d2_psnr"] = r.d2_psnr;
     }
     json["identical"] = r.rms_max == 0.0;
+    if (r.has_colour) {
+      json["colour_mse"] = r.colour_mse;
+      json["colour_psnr"] = r.colour_psnr;  // null when infinite (identical colours)
+    }
     if (r.has_normal_error) {
       json["normal_angle_mean_deg"] = r.normal_angle_mean_deg;
       json["normal_angle_p95_deg"] = r.normal_angle_p95_deg;
@@ -146,9 +155,14 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
     std::printf("%-22s %16.9g %16.9g %16.9g\n", "D2 MSE", r.ref_to_test.mse_d2,
                 r.test_to_ref.mse_d2, r.d2_mse);
   }
+  if (r.has_colour) {
+    std::printf("%-22s %16.9g %16.9g %16.9g\n", "colour MSE (RGB)", r.ref_to_test.mse_colour,
+                r.test_to_ref.mse_colour, r.colour_mse);
+  }
   std::printf("PSNR (paper, d_B)      %s\n", db(r.psnr_paper).c_str());
   std::printf("D1 PSNR (peak %.6g)  %s\n", r.peak, db(r.d1_psnr).c_str());
   if (r.has_d2) std::printf("D2 PSNR (peak %.6g)  %s\n", r.peak, db(r.d2_psnr).c_str());
+  if (r.has_colour) std::printf("colour PSNR (RGB, 255) %s\n", db(r.colour_psnr).c_str());
   if (r.has_normal_error) {
     std::printf("normals angle          mean %.4f deg, 95th percentile %.4f deg\n",
                 r.normal_angle_mean_deg, r.normal_angle_p95_deg);
@@ -166,7 +180,9 @@ int run_eval(const EvalCliOptions& options, const GlobalOptions& global) {
 Command add_eval_command(CLI::App& root, const GlobalOptions& global) {
   auto options = std::make_shared<EvalCliOptions>();
   CLI::App* app = root.add_subcommand(
-      "eval", "Distortion of TEST against REF: RMS, Hausdorff, PSNR (paper), MPEG D1/D2 PSNR");
+      "eval",
+      "Distortion of TEST against REF: RMS, Hausdorff, PSNR (paper), MPEG D1/D2 PSNR, and "
+      "colour PSNR when both have colours");
   app->add_option("ref", options->ref, "Reference (original) point cloud ('-' reads stdin)")->required();
   app->add_option("test", options->test, "Test (decoded) point cloud ('-' reads stdin)")->required();
   app->add_option("--peak", options->peak,

@@ -1,6 +1,6 @@
-// Distortion metrics between a reference cloud and a test cloud (paper §6), and
-// MPEG's D1/D2 PSNR as its metric software (pc_error) defines them. Formulas and sources are in
-// docs/METRICS.md.
+// Distortion metrics between a reference cloud and a test cloud (paper §6), MPEG's D1/D2 PSNR
+// as its metric software (pc_error) defines them, and the colour PSNR it defines, computed in
+// RGB. Formulas and sources are in docs/METRICS.md.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +25,10 @@ struct DirectedError {
   double mse_d1 = 0;       // mean d² (point-to-point)
   double mse_d2 = 0;       // mean of the error projected on the normal (point-to-plane)
   bool has_d2 = false;
+  // Mean over A's points and over R, G, B of (a's colour − its nearest B colour)², in 8-bit
+  // levels squared; the nearest colour is the mean over an equidistant group.
+  double mse_colour = 0;
+  bool has_colour = false;
 };
 
 struct EvalReport {
@@ -46,12 +50,16 @@ struct EvalReport {
   double normal_angle_mean_deg = 0;  // over TEST's points vs their nearest REF point's normal
   double normal_angle_p95_deg = 0;
   std::uint64_t normal_angle_points = 0;  // TEST points with an angle (both normals non-zero)
+  bool has_colour = false;                // both clouds have colours
+  double colour_mse = 0;                  // max of the two directions' colour MSE
+  double colour_psnr = 0;                 // 10 log10(255² / colour_mse); +inf when 0
 };
 
-// REF is the original, TEST the decoded cloud. Errors (kInvalidArgument): an empty cloud, a
-// cloud that fails PointCloud::validate(), a given peak that is not positive and finite, no
-// peak given and REF's bounding-box diagonal 0. kResourceExhausted: a cloud of 2^32 points or
-// more. Results are bit-identical whatever the thread count.
+// REF is the original, TEST the decoded cloud; colour errors are reported when both have
+// colours. Errors (kInvalidArgument): an empty cloud, a cloud that fails PointCloud::validate(),
+// a given peak that is not positive and finite, no peak given and REF's bounding-box diagonal 0.
+// kResourceExhausted: a cloud of 2^32 points or more. Results are bit-identical whatever the
+// thread count.
 StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
                               const EvalOptions& options = {});
 
@@ -71,6 +79,9 @@ double paper_psnr(double diagonal, double rms);
 // MPEG's geometry PSNR as pc_error computes it: 10·log10(3·peak² / mse), the 3 being the number
 // of coordinates; +inf when mse is 0.
 double mpeg_geometry_psnr(double mse, double peak);
+
+// Colour PSNR of 8-bit channels: 10·log10(255² / mse), the mse per channel; +inf when mse is 0.
+double colour_psnr(double mse);
 
 // Bits per point of a compressed file of `file_bytes` bytes for a cloud of `points` points.
 inline double bits_per_point(std::uint64_t file_bytes, std::uint64_t points) {

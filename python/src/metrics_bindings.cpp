@@ -1,4 +1,5 @@
-// sspc.eval (the paper's §6 metrics and MPEG D1/D2, docs/METRICS.md) and sspc.synthetic.
+// sspc.eval (the paper's §6 metrics, MPEG D1/D2 and colour PSNR, docs/METRICS.md) and
+// sspc.synthetic.
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
@@ -20,6 +21,7 @@ py::dict direction(const DirectedError& e) {
   d["hausdorff"] = e.hausdorff;
   d["d1_mse"] = e.mse_d1;
   if (e.has_d2) d["d2_mse"] = e.mse_d2;
+  if (e.has_colour) d["colour_mse"] = e.mse_colour;
   return d;
 }
 
@@ -82,6 +84,10 @@ py::dict evaluate_clouds(const py::object& original, const py::object& decoded, 
     d["d2_psnr"] = r.d2_psnr;
   }
   d["identical"] = r.rms_max == 0.0;
+  if (r.has_colour) {
+    d["colour_mse"] = r.colour_mse;
+    d["colour_psnr"] = r.colour_psnr;  // inf for identical colours (the CLI's JSON writes null)
+  }
   if (r.has_normal_error) {
     d["normal_angle_mean_deg"] = r.normal_angle_mean_deg;
     d["normal_angle_p95_deg"] = r.normal_angle_p95_deg;
@@ -152,10 +158,11 @@ Distortion of `decoded` against the reference `original`, as `sspc eval --json` 
 
 Both are PointClouds or (N, 3) position arrays. Returns a dict with the CLI's keys: ref_points,
 test_points, ref_diagonal, peak, ref_normals ("file", "estimated" or "none"), ref_to_test and
-test_to_ref (rms, hausdorff, d1_mse, d2_mse), rms, hausdorff, psnr (the paper's, 20 log10(d_B /
-rms); inf for identical clouds where the CLI writes null), d1_mse, d1_psnr, d2_mse and d2_psnr
-(when the reference has normals, its own or, with estimate_normals=True, estimated ones),
-identical, normal_angle_mean_deg and normal_angle_p95_deg (when both clouds have their own
+test_to_ref (rms, hausdorff, d1_mse, d2_mse, colour_mse), rms, hausdorff, psnr (the paper's, 20
+log10(d_B / rms); inf for identical clouds where the CLI writes null), d1_mse, d1_psnr, d2_mse and
+d2_psnr (when the reference has normals, its own or, with estimate_normals=True, estimated ones),
+identical, colour_mse and colour_psnr (when both clouds have colours: RGB, 10 log10(255^2 /
+colour_mse); inf for identical colours), normal_angle_mean_deg and normal_angle_p95_deg (when both clouds have their own
 normals), and with `compressed` (bytes, or the path of the compressed file) compressed_bytes and
 bits_per_point. peak is MPEG's D1/D2 peak (default: the reference's bounding-box diagonal). The formulas are
 in the repository's docs/METRICS.md. The GIL is released while computing.)doc");

@@ -47,6 +47,19 @@ def test_reference_without_normals(bumps):
     assert no_d2["ref_normals"] == "none" and "d2_psnr" not in no_d2
 
 
+def test_colour_psnr(bumps):
+    rng = np.random.default_rng(5)
+    colours = rng.integers(0, 250, size=(len(bumps), 3), dtype=np.uint8)
+    ref = sspc.PointCloud(bumps.positions, colours=colours)
+    assert math.isinf(sspc.eval(ref, ref)["colour_psnr"])
+    # Every channel 5 levels up: MSE 25 in both directions, PSNR 10 log10(255^2 / 25).
+    brighter = sspc.PointCloud(bumps.positions, colours=colours + np.uint8(5))
+    report = sspc.eval(ref, brighter)
+    assert report["colour_mse"] == report["ref_to_test"]["colour_mse"] == 25
+    assert report["colour_psnr"] == pytest.approx(10 * math.log10(255**2 / 25))
+    assert "colour_psnr" not in sspc.eval(bumps, brighter)  # only one cloud has colours
+
+
 def test_eval_errors(bumps):
     with pytest.raises(ValueError):
         sspc.eval(bumps, bumps, peak=-1)

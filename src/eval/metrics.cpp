@@ -2,8 +2,10 @@
 //
 // Paper §6 (after Waschbüsch et al. 2004): PSNR = 20·log10(d_B / max(RMS(U,C), RMS(C,U))).
 // MPEG D1/D2: mpeg-pcc-dmetric (pc_error) v0.14, source/pcc_distortion.cpp: per-direction MSEs,
-// the symmetric MSE as their maximum, PSNR = 10·log10(3·peak² / MSE). All formulas, sources and
-// the points where sspc departs from pc_error are in docs/METRICS.md.
+// the symmetric MSE as their maximum, PSNR = 10·log10(3·peak² / MSE); colour the same way, in
+// RGB, with PSNR = 10·log10(255² / MSE). All formulas, sources and the points where sspc departs
+// from pc_error are in docs/METRICS.md.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -11,6 +13,7 @@
 #include <string>
 
 #include "core/parallel.hpp"
+#include "eval/colour_error.hpp"
 #include "eval/directed_error.hpp"
 #include "eval/nearest_groups.hpp"
 #include "eval/normal_angle.hpp"
@@ -28,6 +31,11 @@ double paper_psnr(double diagonal, double rms) {
 double mpeg_geometry_psnr(double mse, double peak) {
   if (mse == 0) return std::numeric_limits<double>::infinity();
   return 10.0 * std::log10(3.0 * peak * peak / mse);
+}
+
+double colour_psnr(double mse) {
+  if (mse == 0) return std::numeric_limits<double>::infinity();
+  return 10.0 * std::log10(255.0 * 255.0 / mse);
 }
 
 namespace {
@@ -124,6 +132,22 @@ StatusOr<EvalReport> evaluate(const PointCloud& ref, const PointCloud& test,
   if (report.has_d2) {
     report.d2_mse = std::max(report.ref_to_test.mse_d2, report.test_to_ref.mse_d2);
     report.d2_psnr = mpeg_geometry_psnr(report.d2_mse, report.peak);
+  }
+
+  report.has_colour = ref.has_colours() && test.has_colours();
+  if (report.has_colour) {
+    // The same nearest groups as the geometry: pc_error compares each point's colour with that
+    // of the point D1 matched it to (the group's mean where several are equidistant).
+    progress_begin(progress, "eval: colour errors", ref.size() + test.size());
+    report.ref_to_test.mse_colour = eval::colour_mse(ref.colours, test.colours, ref_to_test);
+    report.ref_to_test.has_colour = true;
+    progress_advance(progress, ref.size());
+    report.test_to_ref.mse_colour = eval::colour_mse(test.colours, ref.colours, test_to_ref);
+    report.test_to_ref.has_colour = true;
+    progress_advance(progress, test.size());
+    progress_end(progress);
+    report.colour_mse = std::max(report.ref_to_test.mse_colour, report.test_to_ref.mse_colour);
+    report.colour_psnr = colour_psnr(report.colour_mse);
   }
 
   report.has_normal_error = ref.has_normals() && test.has_normals();

@@ -5,6 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <cstdlib>
 #include <map>
 #include <set>
 #include <sstream>
@@ -59,6 +61,19 @@ void flatten(const nlohmann::json& json, const std::string& prefix, std::set<std
   }
 }
 
+// `path` with a colour for every point, written to `out`: the colour keys of eval.
+std::string coloured_copy(const std::string& path, const std::string& out) {
+  auto cloud = read_point_cloud(path);
+  if (!cloud.ok()) std::abort();
+  cloud->colours.resize(cloud->size());
+  for (std::size_t i = 0; i < cloud->size(); ++i) {
+    cloud->colours[i] =
+        Rgb8{static_cast<std::uint8_t>(i), 128, static_cast<std::uint8_t>(255 - i % 256)};
+  }
+  if (!write_ply(*cloud, out).ok()) std::abort();
+  return out;
+}
+
 class JsonKeys : public ::testing::Test {
  protected:
   // Checks one --json output against `section`.
@@ -99,6 +114,8 @@ TEST_F(JsonKeys, EverySubcommandWritesTheDocumentedKeys) {
   check("eval",
         sspc(dir, "eval --json " + cloud + " " + d + "dec.ply --compressed " + d + "m.sspc"));
   check("eval", sspc(dir, "eval --json " + cloud + " " + d + "n.ply"));
+  const std::string coloured = coloured_copy(cloud, d + "coloured.ply");
+  check("eval", sspc(dir, "eval --json " + coloured + " " + coloured));
   check("render", sspc(dir, "render --json " + cloud + " -o " + d +
                                 "a.png --size 32x32 --memory-budget 64"));
   check("render", sspc(dir, "render --json " + d + "m.sspc -o " + d +

@@ -1,6 +1,9 @@
 // Runs the sspc executable the way a user does and checks exit codes, messages and outputs.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -112,6 +115,55 @@ TEST(Cli, EvalOfANoisyCopyGivesAFinitePsnrAndBitsPerPoint) {
   CliRun bad_peak = sspc(dir, "eval " + (dir.path() / "ref.ply").string() + " " +
                                (dir.path() / "noisy.ply").string() + " --peak -1");
   EXPECT_EQ(bad_peak.exit_code, 1);
+}
+
+// Colour PSNR end to end: two PLY files with the same points, TEST's colours 5 levels brighter
+// in every channel, give MSE 25 and 10·log10(65025/25) = 34.151 dB under the documented keys.
+TEST(Cli, EvalReportsColourPsnrWhenBothFilesHaveColours) {
+  test::TempDir dir;
+  PointCloud ref = synthetic::sphere(3000, 1.0);
+  ref.colours.resize(ref.size());
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    ref.colours[i] =
+        Rgb8{static_cast<std::uint8_t>(i % 250), static_cast<std::uint8_t>(i * 7 % 250),
+             static_cast<std::uint8_t>(i * 13 % 250)};
+  }
+  PointCloud brighter = ref;
+  for (Rgb8& c : brighter.colours) {
+    c = Rgb8{static_cast<std::uint8_t>(c.r + 5), static_cast<std::uint8_t>(c.g + 5),
+             static_cast<std::uint8_t>(c.b + 5)};
+  }
+  const std::string r = (dir.path() / "ref.ply").string();
+  const std::string t = (dir.path() / "brighter.ply").string();
+  ASSERT_TRUE(write_ply(ref, r).ok());
+  ASSERT_TRUE(write_ply(brighter, t).ok());
+
+  const CliRun run = sspc(dir, "eval --json " + r + " " + t);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json json = nlohmann::json::parse(run.out, nullptr, false);
+  ASSERT_TRUE(json.is_object()) << run.out;
+  EXPECT_EQ(json["identical"], true) << "positions unchanged";
+  EXPECT_EQ(json["colour_mse"].get<double>(), 25.0) << run.out;
+  EXPECT_EQ(json["ref_to_test"]["colour_mse"].get<double>(), 25.0) << run.out;
+  EXPECT_EQ(json["test_to_ref"]["colour_mse"].get<double>(), 25.0) << run.out;
+  EXPECT_NEAR(json["colour_psnr"].get<double>(), 34.151, 5e-4) << run.out;
+
+  const CliRun same = sspc(dir, "eval --json " + r + " " + r);
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  const nlohmann::json identical = nlohmann::json::parse(same.out, nullptr, false);
+  ASSERT_TRUE(identical.contains("colour_psnr")) << same.out;
+  EXPECT_TRUE(identical["colour_psnr"].is_null()) << "infinite PSNR is null: " << same.out;
+
+  const CliRun text = sspc(dir, "eval " + r + " " + t);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("colour PSNR (RGB, 255) 34.1514 dB"), std::string::npos) << text.out;
+
+  // A TEST without colours: no colour keys, rather than a meaningless number.
+  const std::string plain = (dir.path() / "plain.ply").string();
+  ASSERT_TRUE(write_ply(synthetic::sphere(3000, 1.0), plain).ok());
+  const CliRun without = sspc(dir, "eval --json " + r + " " + plain);
+  ASSERT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_EQ(without.out.find("colour"), std::string::npos) << without.out;
 }
 
 // encode → verify → decode on the bundled bunny: the same bytes on 1 and 2 threads, a decoded
