@@ -5,7 +5,8 @@
 #
 # Usage: scripts/rd_colour.sh [DATA_DIR]     (default ../shared/data)
 #   QUALITIES="50 70 80 90 100"    sspc --colour-quality values
-#   DRACO_SETTINGS="default|-qc 6|-qc 7"   draco_encoder options, '|' between settings
+#   DRACO_SETTINGS="default"   draco_encoder options, '|' between settings (Debian's draco_encoder
+#   codes 8-bit colours losslessly and has no colour quantisation option: -qc is ignored)
 #
 # Colour bits per point: Draco's are 8·(bytes with colours − bytes without)/N, the same cloud
 # encoded twice with the same options; sspc's are 8·colour_bytes/N from `sspc encode --json`.
@@ -18,7 +19,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data="${1:-../shared/data}"
 QUALITIES="${QUALITIES:-50 70 80 90 100}"
-DRACO_SETTINGS="${DRACO_SETTINGS:-default|-qc 6|-qc 7}"
+DRACO_SETTINGS="${DRACO_SETTINGS:-default}"
 src="$data/bunny.ply"
 if [ ! -f "$src" ]; then
   echo "rd_colour: no $src; nothing to measure" >&2
