@@ -1,5 +1,6 @@
 // sspc encode IN OUT.sspc: compress a point cloud by its self-similarity (paper §4;
 // docs/FORMAT.md). IN or OUT may be "-" (stdin, stdout).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -73,7 +74,19 @@ std::string drop_unkept_attributes(PointCloud& cloud, unsigned keep) {
     take(dropped.return_number, cloud.las.return_number);
     take(dropped.number_of_returns, cloud.las.number_of_returns);
   }
+  // Colours are kept at 8 bits a channel (the reader's PointCloud::colours): LAS's 16-bit RGB
+  // loses only what its low bytes held.
+  bool low_rgb_bits = false;
+  if ((keep & kAttributeColour) != 0 && cloud.has_colours()) {
+    bool wide = false;
+    for (const auto& c : dropped.rgb) wide = wide || std::max({c[0], c[1], c[2]}) > 255;
+    for (const auto& c : dropped.rgb) {
+      low_rgb_bits = low_rgb_bits || (wide && ((c[0] | c[1] | c[2]) & 0xFF) != 0);
+    }
+    dropped.rgb = {};
+  }
   std::string names = dropped.empty() ? std::string() : dropped.names();
+  if (low_rgb_bits) names = names.empty() ? "RGB's low 8 bits" : names + ", RGB's low 8 bits";
   if (cloud.has_colours() && (keep & kAttributeColour) == 0) {
     cloud.colours = {};
     names = names.empty() ? "colours" : "colours, " + names;
