@@ -55,6 +55,24 @@ inline std::string repair_crcs(std::string s) {
       store_le32(s, e + 16, crc_of(s, d.offset + off, stored));
     }
   }
+  // The attributes part (header flag bit 4), right after section 4: its blocks, then its table.
+  const auto flags = static_cast<std::uint16_t>(load_le(s, 10, 2));
+  if ((flags & kFlagAttributes) != 0 && sec[3].inside) {
+    const std::uint64_t start = sec[3].offset + sec[3].size;
+    const std::uint64_t blocks = sec[3].size / kPatchSeekEntrySize;
+    const std::uint64_t table = kAttributeDescriptorSize + kAttributeSeekEntrySize * blocks;
+    if (start <= s.size() && s.size() - start >= 8 + table) {
+      const std::uint64_t data = start + 8 + table;
+      for (std::uint64_t b = 0; b < blocks; ++b) {
+        const std::uint64_t e = start + 24 + b * kAttributeSeekEntrySize;
+        const std::uint64_t off = load_le(s, e, 8);
+        const std::uint64_t size = load_le(s, e + 8, 4);
+        if (off > s.size() - data || size > s.size() - data - off) continue;
+        store_le32(s, e + 12, crc_of(s, data + off, size));
+      }
+      store_le32(s, start + 4, crc_of(s, start + 8, table));
+    }
+  }
   for (std::size_t i = 0; i < kSectionCount; ++i) {
     if (!sec[i].inside) continue;
     store_le32(s, kSectionTableOffset + i * kSectionEntrySize + 4,

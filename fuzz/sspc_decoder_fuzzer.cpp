@@ -29,13 +29,25 @@ using sspc::PointCloud;
 constexpr std::size_t kMaxVisited = 256;
 
 bool same_cloud(const PointCloud& a, const PointCloud& b) {
-  return a.positions == b.positions && a.normals == b.normals && a.colours == b.colours;
+  return a.positions == b.positions && a.normals == b.normals && a.colours == b.colours &&
+         a.las.intensity == b.las.intensity && a.las.classification == b.las.classification &&
+         a.las.return_number == b.las.return_number &&
+         a.las.number_of_returns == b.las.number_of_returns;
+}
+
+template <typename T>
+void append_range(std::vector<T>& dst, const std::vector<T>& src) {
+  dst.insert(dst.end(), src.begin(), src.end());
 }
 
 void append(PointCloud& dst, const PointCloud& src) {
-  dst.positions.insert(dst.positions.end(), src.positions.begin(), src.positions.end());
-  dst.normals.insert(dst.normals.end(), src.normals.begin(), src.normals.end());
-  dst.colours.insert(dst.colours.end(), src.colours.begin(), src.colours.end());
+  append_range(dst.positions, src.positions);
+  append_range(dst.normals, src.normals);
+  append_range(dst.colours, src.colours);
+  append_range(dst.las.intensity, src.las.intensity);
+  append_range(dst.las.classification, src.las.classification);
+  append_range(dst.las.return_number, src.las.return_number);
+  append_range(dst.las.number_of_returns, src.las.number_of_returns);
 }
 
 void check_model(const std::string& bytes) {
@@ -114,6 +126,13 @@ void check_model(const std::string& bytes) {
       expected.positions.push_back(all->positions[i]);
       if (!all->normals.empty()) expected.normals.push_back(all->normals[i]);
       if (!all->colours.empty()) expected.colours.push_back(all->colours[i]);
+      const sspc::LasPointAttributes& a = all->las;
+      if (!a.intensity.empty()) expected.las.intensity.push_back(a.intensity[i]);
+      if (!a.classification.empty()) expected.las.classification.push_back(a.classification[i]);
+      if (!a.return_number.empty()) expected.las.return_number.push_back(a.return_number[i]);
+      if (!a.number_of_returns.empty()) {
+        expected.las.number_of_returns.push_back(a.number_of_returns[i]);
+      }
     }
     SSPC_FUZZ_CHECK(same_cloud(*clipped, expected));
   }

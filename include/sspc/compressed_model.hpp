@@ -124,7 +124,8 @@ class CompressedModel {
   // The whole model, patches in file order; parallel and deterministic.
   StatusOr<PointCloud> decode_all(const DecodeOptions& options = {}) const;
 
-  // Every checksum (sections and blocks) and a decode of every block.
+  // Every checksum (sections and blocks) and a decode of every block; with per-point attributes,
+  // a whole decode (their streams are decoded against the geometry).
   Status verify() const;
 
   ModelInfo info() const;

@@ -453,7 +453,15 @@ Status CompressedModel::verify() const {
   for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
   SSPC_RETURN_IF_ERROR(
       after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kCodebookBlocks)));
-  return after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kPatchBlocks));
+  SSPC_RETURN_IF_ERROR(
+      after_read(impl_->mapped, reader.check_section_crc(codec::SectionKind::kPatchBlocks)));
+  // Attribute streams are decoded against the geometry (FORMAT.md, "Attributes"): only a whole
+  // decode shows that every one is well formed.
+  if (reader.attributes().channels != 0) {
+    auto all = decode_all();
+    if (!all.ok()) return all.status();
+  }
+  return Status();
 }
 
 ModelInfo CompressedModel::info() const {
