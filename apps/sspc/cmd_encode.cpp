@@ -34,6 +34,7 @@ struct EncodeCliOptions {
   std::string attributes = "all";
   int colour_quality = EncodeOptions().colour_quality;
   int intensity_step = 1;
+  std::uint64_t tile_points = 0;
   bool force = false;
   bool json = false;
 };
@@ -136,6 +137,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.attributes = *keep;
   options.colour_quality = o.colour_quality;
   options.intensity_step = o.intensity_step;
+  options.tile_points = o.tile_points;
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
@@ -177,6 +179,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
     json["classification_bytes"] = stats->classification_bytes;
     json["returns_bytes"] = stats->returns_bytes;
     json["colour_step"] = stats->colour_step;
+    json["tiles"] = stats->tiles;
     json["geometry_bits_per_point"] =
         bits_per_point(stats->file_bytes - stats->attribute_bytes, stats->points);
     json["bits_per_point"] = stats->bits_per_point;
@@ -236,6 +239,11 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                 "instance decodes are dropped");
   app->add_flag("--keep-duplicates", o->keep_duplicates,
                 "Store every point, also several in one cell of the code words' grid (by default a cell keeps one)");
+  app->add_option("--tile-points", o->tile_points,
+                  "Encode in octree tiles of at most N points, each with a margin of its neighbours', "
+                  "joined into one model (0: the whole cloud at once)")
+      ->check(CLI::NonNegativeNumber.description(""))
+      ->type_name("N");
   app->add_option("--attributes", o->attributes,
                   "Per-point attributes to keep, of those the input has: all, none, or a list of "
                   "colour, intensity, classification, returns")

@@ -49,6 +49,10 @@ struct EncodeOptions {
   unsigned attributes = kAllAttributes;
   int colour_quality = 70;   // 0..100 (100: lossless); see colour_step_for_quality
   int intensity_step = 1;    // 1..4096 (1: lossless)
+  // Encode in tiles of at most this many points (0: the whole cloud at once): octree cells,
+  // each built with a margin of its neighbours' points and joined into one model
+  // (src/encoder/tiling.hpp). Normals are estimated per tile.
+  std::uint64_t tile_points = 0;
   NormalOptions normals;            // how the input gets its normals (default: auto)
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
@@ -77,6 +81,7 @@ struct EncodeStats {
   std::uint64_t intensity_bytes = 0;
   std::uint64_t classification_bytes = 0;
   std::uint64_t returns_bytes = 0;
+  std::uint64_t tiles = 0;  // tiles of a tiled encode (0: untiled)
   unsigned attributes = 0;  // the kAttribute* bits kept
   int colour_step = 0;      // when colours are kept
   double bits_per_point = 0;

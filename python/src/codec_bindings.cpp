@@ -53,6 +53,7 @@ py::dict encode_stats(const EncodeStats& s, int level, double seconds) {
   d["classification_bytes"] = s.classification_bytes;
   d["returns_bytes"] = s.returns_bytes;
   d["colour_step"] = s.colour_step;
+  d["tiles"] = s.tiles;
   d["bits_per_point"] = s.bits_per_point;
   d["normals_seconds"] = s.seconds_normals;
   d["centres_seconds"] = s.seconds_centres;
@@ -127,7 +128,8 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
                         int level, std::optional<int> patch_points, std::optional<float> epsilon,
                         std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
                         bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
-                        int intensity_step, const std::string& normals, const py::object& viewpoint,
+                        int intensity_step, std::uint64_t tile_points, const std::string& normals,
+                        const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
   PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
   check(cloud.validate());
@@ -144,6 +146,7 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   options.attributes = attribute_bits(attributes);
   options.colour_quality = colour_quality;
   options.intensity_step = intensity_step;
+  options.tile_points = tile_points;
   options.normals.mode = normal_mode(normals);
   if (!viewpoint.is_none()) options.normals.viewpoint = vec3(viewpoint, "viewpoint");
   options.seed = seed;
@@ -347,6 +350,7 @@ void bind_codec(py::module_& m) {
         py::arg("step") = py::none(), py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
         py::arg("keep_duplicates") = false, py::arg("attributes") = "all",
         py::arg("colour_quality") = EncodeOptions().colour_quality, py::arg("intensity_step") = 1,
+        py::arg("tile_points") = 0,
         py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
         py::arg("progress") = py::none(), R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
@@ -363,7 +367,8 @@ store_normals keeps the code words' normals; full_spheres keeps each code word's
 keep_duplicates stores every point, also several in one cell of the code words' grid;
 attributes ('all', 'none', or names among colour, intensity, classification, returns) chooses the
 per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
-intensity_step 1..4096 (1: lossless) set their rates;
+intensity_step 1..4096 (1: lossless) set their rates; tile_points > 0 encodes in octree tiles of
+at most that many points, each with a margin of its neighbours', joined into one model;
 normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint
 orients estimated normals towards a point; seed; threads > 0 caps the worker threads.
 

@@ -149,11 +149,12 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
   std::vector<Vec3f> origins;
   origins.reserve(model.patches.size());
   for (const PatchInstance& p : model.patches) origins.push_back(p.region_centre());
-  std::vector<std::uint8_t> uncovered(cloud.size(), 0);
+  const std::size_t to_cover = o.covered_points == 0 ? cloud.size() : std::min(o.covered_points, cloud.size());
+  std::vector<std::uint8_t> uncovered(to_cover, 0);
   {
     const KdTree3 origin_tree(origins);
     const float r2 = o.coverage_radius * o.coverage_radius;
-    parallel_for(0, cloud.size(), 4096, [&](std::size_t i) {
+    parallel_for(0, to_cover, 4096, [&](std::size_t i) {
       float d2 = 0;
       origin_tree.nearest(cloud.positions[i], &d2);
       uncovered[i] = d2 > r2 ? 1 : 0;
@@ -161,17 +162,17 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
   }
   std::vector<Vec3f> added;
   const float r2 = o.coverage_radius * o.coverage_radius;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
+  for (std::size_t i = 0; i < to_cover; ++i) {
     if (uncovered[i] == 0) continue;
     const Vec3f& p = cloud.positions[i];
-    bool covered = false;
+    bool near_added = false;
     for (const Vec3f& c : added) {
       if ((c - p).squaredNorm() <= r2) {
-        covered = true;
+        near_added = true;
         break;
       }
     }
-    if (!covered) added.push_back(p);
+    if (!near_added) added.push_back(p);
   }
   std::vector<Neighbour> near;
   std::vector<std::uint32_t> idx;

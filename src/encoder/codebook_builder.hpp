@@ -24,6 +24,10 @@ struct CodebookOptions {
   float epsilon = 0.5f;       // L1 radius in descriptor space
   float tau = 0.25f;          // MLS RMS error threshold, in units of `spacing`
   DescriptorParams descriptor;
+  // Coverage is restored for the first `covered_points` points only (0: all). A tile of a tiled
+  // encode lists its own points first and its margin after; the margin is its neighbours' to
+  // cover (encoder/tiling.hpp).
+  std::size_t covered_points = 0;
   Progress* progress = nullptr;
 };
 

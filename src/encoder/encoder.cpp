@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "core/stopwatch.hpp"
@@ -11,8 +12,12 @@
 #include "encoder/levels.hpp"
 #include "encoder/model_builder.hpp"
 #include "encoder/patch_centres.hpp"
+#include "encoder/spatial_order.hpp"
+#include "encoder/tiling.hpp"
 #include "format/container_format.hpp"
 #include "format/quantise.hpp"
+#include "sspc/neighbours.hpp"
+#include "sspc/normals.hpp"
 
 namespace sspc {
 
@@ -48,6 +53,120 @@ Status check_options(const EncodeOptions& o) {
   return Status();
 }
 
+// Weighted median of (value, weight) pairs: the value where the weights' running sum first
+// reaches half their total.
+double weighted_median(std::vector<std::pair<double, std::size_t>> v) {
+  std::sort(v.begin(), v.end());
+  std::size_t total = 0;
+  for (const auto& [value, weight] : v) total += weight;
+  std::size_t sum = 0;
+  for (const auto& [value, weight] : v) {
+    sum += weight;
+    if (2 * sum >= total) return value;
+  }
+  return v.empty() ? 0.0 : v.back().first;
+}
+
+// The points `indices` of `cloud` (positions, and normals when it has them).
+PointCloud gather(const PointCloud& cloud, std::span<const std::uint32_t> indices) {
+  PointCloud out;
+  out.positions.reserve(indices.size());
+  for (std::uint32_t i : indices) out.positions.push_back(cloud.positions[i]);
+  if (cloud.has_normals()) {
+    out.normals.reserve(indices.size());
+    for (std::uint32_t i : indices) out.normals.push_back(cloud.normals[i]);
+  }
+  return out;
+}
+
+// The model of `cloud` built tile by tile (encoder/tiling.hpp states the rule): the whole
+// cloud's spacing and patch radius are the weighted medians of the tiles' own, each tile is
+// built from its points and a margin, and the tiles' patches and code words are joined.
+StatusOr<codec::EncodedModel> build_tiled(const PointCloud& cloud, codec::BuildOptions build,
+                                          const NormalOptions& normal_options, std::uint64_t tile_points,
+                                          codec::BuildStats* stats, std::uint64_t* tiles) {
+  const codec::TilePlan plan = codec::plan_tiles(cloud.positions, tile_points);
+  *tiles = plan.boxes.size();
+  // The tile's own points first, then its neighbours' within `margin` of its box.
+  auto with_margin = [&](std::size_t t, float margin) {
+    std::vector<std::uint32_t> indices = plan.points[t];
+    const Box3f reach(plan.boxes[t].min() - Vec3f::Constant(margin), plan.boxes[t].max() + Vec3f::Constant(margin));
+    for (std::size_t u = 0; u < plan.boxes.size(); ++u) {
+      if (u == t || !reach.intersects(plan.boxes[u])) continue;
+      for (std::uint32_t i : plan.points[u]) {
+        if (reach.contains(cloud.positions[i])) indices.push_back(i);
+      }
+    }
+    return indices;
+  };
+  std::vector<std::pair<double, std::size_t>> spacings, radii;
+  // The spacing over each tile and a margin of 8 of its own spacings: a point at the tile's
+  // border has its nearest neighbour across it (the tile alone read bunny's spacing 4% long).
+  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
+    if (plan.points[t].size() < 16) continue;
+    const double own = nominal_spacing(KdTree3(gather(cloud, plan.points[t]).positions));
+    if (!(own > 0)) continue;
+    const double spacing = nominal_spacing(KdTree3(gather(cloud, with_margin(t, static_cast<float>(8 * own))).positions));
+    if (spacing > 0) spacings.emplace_back(spacing, plan.points[t].size());
+  }
+  if (spacings.empty()) return invalid_argument("no tile has 16 distinct points; use larger tiles");
+  build.spacing = weighted_median(spacings);
+  // The radius from spheres about the tiles' own points, counted over their margins too (a
+  // guess at three times the radius a flat sampling would give).
+  const double guess = 3 * build.spacing * std::sqrt(static_cast<double>(build.level.patch_points) / std::numbers::pi);
+  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
+    if (plan.points[t].size() < 16) continue;
+    const PointCloud part = gather(cloud, with_margin(t, static_cast<float>(guess)));
+    const KdTree3 tree(part.positions);
+    radii.emplace_back(codec::radius_for_patch_points(part, tree, build.spacing, build.level.patch_points,
+                                                      plan.points[t].size()),
+                       plan.points[t].size());
+  }
+  build.patch_radius = static_cast<float>(
+      std::min(weighted_median(radii), bounding_box_diagonal(cloud)));
+  const auto margin = static_cast<float>(1.5 * double{build.patch_radius} + 8 * build.spacing);
+
+  codec::EncodedModel model;
+  model.patch_radius = build.patch_radius;
+  model.coverage_radius = build.patch_radius / codec::kPatchOverCoverage;
+  model.spacing = static_cast<float>(build.spacing);
+  model.source_points = cloud.size();
+  model.has_normals = true;
+  model.has_colours = false;
+  model.bounds = cloud.bounding_box();
+  stats->spacing = build.spacing;
+  stats->patch_radius = build.patch_radius;
+  stats->coverage_radius = model.coverage_radius;
+  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
+    PointCloud part = gather(cloud, with_margin(t, margin));
+    if (!part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(part, normal_options));
+    build.core_points = plan.points[t].size();
+    codec::BuildStats tile_stats;
+    SSPC_ASSIGN_OR_RETURN(codec::EncodedModel tile, codec::build_model(part, build, &tile_stats));
+    const auto offset = static_cast<std::uint32_t>(model.codebook.size());
+    for (codec::Codeword& w : tile.codebook) model.codebook.push_back(std::move(w));
+    for (codec::PatchInstance p : tile.patches) {
+      p.codeword += offset;
+      model.patches.push_back(p);
+    }
+    stats->seconds_centres += tile_stats.seconds_centres;
+    stats->seconds_codebook += tile_stats.seconds_codebook;
+    stats->codebook.seconds_descriptors += tile_stats.codebook.seconds_descriptors;
+    stats->codebook.candidates_tested += tile_stats.codebook.candidates_tested;
+    stats->codebook.codeword_points += tile_stats.codebook.codeword_points;
+  }
+  // One spatial order over all tiles' patches, code words numbered by first use, as untiled.
+  std::vector<Vec3f> origins;
+  origins.reserve(model.patches.size());
+  for (const codec::PatchInstance& p : model.patches) origins.push_back(p.region_centre());
+  std::vector<codec::PatchInstance> sorted;
+  sorted.reserve(model.patches.size());
+  for (std::uint32_t k : codec::spatial_order(origins, model.bounds)) sorted.push_back(model.patches[k]);
+  model.patches = std::move(sorted);
+  codec::number_codewords_by_first_use(model);
+  return model;
+}
+
 }  // namespace
 
 static_assert(kAttributeColour == codec::kChannelColour && kAttributeIntensity == codec::kChannelIntensity &&
@@ -75,7 +194,8 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   auto start = std::chrono::steady_clock::now();
   NormalOptions normal_options = options.normals;
   normal_options.progress = options.progress;
-  SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
+  const bool tiled = options.tile_points > 0 && cloud.size() > options.tile_points;
+  if (!tiled) SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
   stats.seconds_normals = seconds_since(start);
 
   codec::BuildOptions build;
@@ -87,7 +207,10 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   build.seed = options.seed;
   build.progress = options.progress;
   codec::BuildStats build_stats;
-  SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
+  SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model,
+                        tiled ? build_tiled(cloud, build, normal_options, options.tile_points, &build_stats,
+                                            &stats.tiles)
+                              : codec::build_model(cloud, build, &build_stats));
   model.has_normals = model.has_normals && options.store_normals;
   // Attributes are coded per patch, never per code word (a code word's colours would show on
   // every instance of it).

@@ -27,11 +27,13 @@ void number_codewords_by_first_use(EncodedModel& model) {
   model.codebook = std::move(codebook);  // a code word no patch uses is dropped
 }
 
-float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points) {
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points,
+                              std::size_t sample_from) {
+  const std::size_t pool = sample_from == 0 ? cloud.size() : std::min(sample_from, cloud.size());
   // First guess: a disc of area patch_points · spacing².
   double radius = spacing * std::sqrt(static_cast<double>(patch_points) / std::numbers::pi);
-  const std::size_t samples = std::min<std::size_t>(cloud.size(), 2000);
-  const std::size_t stride = cloud.size() / samples;
+  const std::size_t samples = std::min<std::size_t>(pool, 2000);
+  const std::size_t stride = pool / samples;
   // Two corrections: the count grows like r² on a surface.
   for (int round = 0; round < 2; ++round) {
     const auto r = static_cast<float>(radius);
@@ -52,9 +54,11 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
 StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
   const KdTree3 tree(cloud.positions);
   // Of the distinct positions: a radius of 0 would divide by zero downstream.
-  const double spacing = nominal_spacing(tree);
+  const double spacing = options.spacing > 0 ? options.spacing : nominal_spacing(tree);
   SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
-  const float patch_radius = radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
+  const float patch_radius = options.patch_radius > 0
+                                 ? options.patch_radius
+                                 : radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
   const float coverage_radius = patch_radius / kPatchOverCoverage;
 
   auto start = std::chrono::steady_clock::now();
@@ -63,7 +67,17 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
   centre_options.seed = options.seed;
   centre_options.progress = options.progress;
   CentreStats centre_stats;
-  const std::vector<Vec3f> centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
+  std::vector<Vec3f> centres;
+  if (options.core_points > 0 && options.core_points < cloud.size()) {
+    PointCloud core;
+    const auto end = static_cast<std::ptrdiff_t>(options.core_points);
+    core.positions.assign(cloud.positions.begin(), cloud.positions.begin() + end);
+    core.normals.assign(cloud.normals.begin(), cloud.normals.begin() + end);
+    const KdTree3 core_tree(core.positions);
+    centres = choose_patch_centres(core, core_tree, centre_options, &centre_stats);
+  } else {
+    centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
+  }
   const double seconds_centres = seconds_since(start);
 
   start = std::chrono::steady_clock::now();
@@ -73,6 +87,7 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
   cb.spacing = static_cast<float>(spacing);
   cb.epsilon = options.level.epsilon;
   cb.tau = options.level.tau;
+  cb.covered_points = options.core_points;
   cb.progress = options.progress;
   CodebookStats codebook_stats;
   EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);

@@ -22,6 +22,12 @@ inline constexpr float kPatchOverCoverage = 1.25f;
 
 struct BuildOptions {
   LevelParams level;
+  // A tile of a tiled encode (encoder/tiling.hpp): the whole model's spacing and patch radius
+  // instead of the cloud's own (0: measure them), and centres chosen to cover the first
+  // `core_points` points only (0: all), the rest being the tile's margin.
+  double spacing = 0;
+  float patch_radius = 0;
+  std::size_t core_points = 0;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
 };
@@ -48,7 +54,10 @@ void number_codewords_by_first_use(EncodedModel& model);
 
 // The radius whose sphere holds `patch_points` points on average, measured on a deterministic
 // sample of the cloud (the nominal spacing alone misjudges the area per point on noisy or
-// layered scans).
-float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points);
+// layered scans). With `sample_from` > 0 the sample is drawn from the first `sample_from`
+// points only (a tile's own, the rest being its margin, so that spheres are not cut at its
+// border).
+float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, double spacing, int patch_points,
+                              std::size_t sample_from = 0);
 
 }  // namespace sspc::codec
