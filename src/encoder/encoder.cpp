@@ -1,5 +1,6 @@
 // sspc::encode: normals, the model builder, the container writer.
 #include "sspc/encoder.hpp"
+#include "sspc/tiled_encoder.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -13,6 +14,7 @@
 #include "encoder/model_builder.hpp"
 #include "encoder/patch_centres.hpp"
 #include "encoder/spatial_order.hpp"
+#include "encoder/tile_job.hpp"
 #include "encoder/tiling.hpp"
 #include "format/container_format.hpp"
 #include "format/quantise.hpp"
@@ -79,94 +81,6 @@ PointCloud gather(const PointCloud& cloud, std::span<const std::uint32_t> indice
   return out;
 }
 
-// The model of `cloud` built tile by tile (encoder/tiling.hpp states the rule): the whole
-// cloud's spacing and patch radius are the weighted medians of the tiles' own, each tile is
-// built from its points and a margin, and the tiles' patches and code words are joined.
-StatusOr<codec::EncodedModel> build_tiled(const PointCloud& cloud, codec::BuildOptions build,
-                                          const NormalOptions& normal_options, std::uint64_t tile_points,
-                                          codec::BuildStats* stats, std::uint64_t* tiles) {
-  const codec::TilePlan plan = codec::plan_tiles(cloud.positions, tile_points);
-  *tiles = plan.boxes.size();
-  // The tile's own points first, then its neighbours' within `margin` of its box.
-  auto with_margin = [&](std::size_t t, float margin) {
-    std::vector<std::uint32_t> indices = plan.points[t];
-    const Box3f reach(plan.boxes[t].min() - Vec3f::Constant(margin), plan.boxes[t].max() + Vec3f::Constant(margin));
-    for (std::size_t u = 0; u < plan.boxes.size(); ++u) {
-      if (u == t || !reach.intersects(plan.boxes[u])) continue;
-      for (std::uint32_t i : plan.points[u]) {
-        if (reach.contains(cloud.positions[i])) indices.push_back(i);
-      }
-    }
-    return indices;
-  };
-  std::vector<std::pair<double, std::size_t>> spacings, radii;
-  // The spacing over each tile and a margin of 8 of its own spacings: a point at the tile's
-  // border has its nearest neighbour across it (the tile alone read bunny's spacing 4% long).
-  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
-    if (plan.points[t].size() < 16) continue;
-    const double own = nominal_spacing(KdTree3(gather(cloud, plan.points[t]).positions));
-    if (!(own > 0)) continue;
-    const double spacing = nominal_spacing(KdTree3(gather(cloud, with_margin(t, static_cast<float>(8 * own))).positions));
-    if (spacing > 0) spacings.emplace_back(spacing, plan.points[t].size());
-  }
-  if (spacings.empty()) return invalid_argument("no tile has 16 distinct points; use larger tiles");
-  build.spacing = weighted_median(spacings);
-  // The radius from spheres about the tiles' own points, counted over their margins too (a
-  // guess at three times the radius a flat sampling would give).
-  const double guess = 3 * build.spacing * std::sqrt(static_cast<double>(build.level.patch_points) / std::numbers::pi);
-  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
-    if (plan.points[t].size() < 16) continue;
-    const PointCloud part = gather(cloud, with_margin(t, static_cast<float>(guess)));
-    const KdTree3 tree(part.positions);
-    radii.emplace_back(codec::radius_for_patch_points(part, tree, build.spacing, build.level.patch_points,
-                                                      plan.points[t].size()),
-                       plan.points[t].size());
-  }
-  build.patch_radius = static_cast<float>(
-      std::min(weighted_median(radii), bounding_box_diagonal(cloud)));
-  const auto margin = static_cast<float>(1.5 * double{build.patch_radius} + 8 * build.spacing);
-
-  codec::EncodedModel model;
-  model.patch_radius = build.patch_radius;
-  model.coverage_radius = build.patch_radius / codec::kPatchOverCoverage;
-  model.spacing = static_cast<float>(build.spacing);
-  model.source_points = cloud.size();
-  model.has_normals = true;
-  model.has_colours = false;
-  model.bounds = cloud.bounding_box();
-  stats->spacing = build.spacing;
-  stats->patch_radius = build.patch_radius;
-  stats->coverage_radius = model.coverage_radius;
-  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
-    PointCloud part = gather(cloud, with_margin(t, margin));
-    if (!part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(part, normal_options));
-    build.core_points = plan.points[t].size();
-    codec::BuildStats tile_stats;
-    SSPC_ASSIGN_OR_RETURN(codec::EncodedModel tile, codec::build_model(part, build, &tile_stats));
-    const auto offset = static_cast<std::uint32_t>(model.codebook.size());
-    for (codec::Codeword& w : tile.codebook) model.codebook.push_back(std::move(w));
-    for (codec::PatchInstance p : tile.patches) {
-      p.codeword += offset;
-      model.patches.push_back(p);
-    }
-    stats->seconds_centres += tile_stats.seconds_centres;
-    stats->seconds_codebook += tile_stats.seconds_codebook;
-    stats->codebook.seconds_descriptors += tile_stats.codebook.seconds_descriptors;
-    stats->codebook.candidates_tested += tile_stats.codebook.candidates_tested;
-    stats->codebook.codeword_points += tile_stats.codebook.codeword_points;
-  }
-  // One spatial order over all tiles' patches, code words numbered by first use, as untiled.
-  std::vector<Vec3f> origins;
-  origins.reserve(model.patches.size());
-  for (const codec::PatchInstance& p : model.patches) origins.push_back(p.region_centre());
-  std::vector<codec::PatchInstance> sorted;
-  sorted.reserve(model.patches.size());
-  for (std::uint32_t k : codec::spatial_order(origins, model.bounds)) sorted.push_back(model.patches[k]);
-  model.patches = std::move(sorted);
-  codec::number_codewords_by_first_use(model);
-  return model;
-}
-
 }  // namespace
 
 static_assert(kAttributeColour == codec::kChannelColour && kAttributeIntensity == codec::kChannelIntensity &&
@@ -178,9 +92,9 @@ int colour_step_for_quality(int quality) {
   return static_cast<int>(std::lround(std::exp2(static_cast<double>(100 - q) * 6.0 / 100.0)));
 }
 
-StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
-                             const EncodeOptions& options) {
-  SSPC_RETURN_IF_ERROR(check_options(options));
+namespace {
+
+Status check_cloud(const PointCloud& cloud) {
   SSPC_RETURN_IF_ERROR(cloud.validate());
   if (cloud.size() < 16) {
     return invalid_argument("the cloud has " + std::to_string(cloud.size()) +
@@ -188,16 +102,10 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   }
   if (cloud.size() >= 0xFFFFFFFFu) return resource_exhausted("sspc encode handles fewer than 2^32 points");
   if (!(bounding_box_diagonal(cloud) > 0)) return invalid_argument("all points coincide");
+  return Status();
+}
 
-  EncodeStats stats;
-  stats.points = cloud.size();
-  auto start = std::chrono::steady_clock::now();
-  NormalOptions normal_options = options.normals;
-  normal_options.progress = options.progress;
-  const bool tiled = options.tile_points > 0 && cloud.size() > options.tile_points;
-  if (!tiled) SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
-  stats.seconds_normals = seconds_since(start);
-
+codec::BuildOptions build_options(const EncodeOptions& options) {
   codec::BuildOptions build;
   build.level = codec::level_params(options.level);
   if (options.patch_points) build.level.patch_points = *options.patch_points;
@@ -206,11 +114,14 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   if (options.step) build.level.position_step = *options.step;
   build.seed = options.seed;
   build.progress = options.progress;
-  codec::BuildStats build_stats;
-  SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model,
-                        tiled ? build_tiled(cloud, build, normal_options, options.tile_points, &build_stats,
-                                            &stats.tiles)
-                              : codec::build_model(cloud, build, &build_stats));
+  return build;
+}
+
+// From a built model to the file: attributes, quantisation, the writer, the statistics.
+StatusOr<EncodeStats> write_model(const PointCloud& cloud, codec::EncodedModel model,
+                                  const codec::BuildStats& build_stats, const codec::BuildOptions& build,
+                                  const EncodeOptions& options, EncodeStats stats,
+                                  const std::filesystem::path& output) {
   model.has_normals = model.has_normals && options.store_normals;
   // Attributes are coded per patch, never per code word (a code word's colours would show on
   // every instance of it).
@@ -227,7 +138,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.seconds_codebook = build_stats.seconds_codebook;
   stats.seconds_descriptors = build_stats.codebook.seconds_descriptors;
 
-  start = std::chrono::steady_clock::now();
+  const auto start = std::chrono::steady_clock::now();
   codec::QuantOptions quant;
   // The level's step in spacings, exactly (the writer sizes the grid to it), unless the bits are
   // given.
@@ -286,6 +197,195 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   stats.colour_step = (attributes.channels & codec::kChannelColour) ? attributes.colour_step : 0;
   stats.bits_per_point = 8.0 * static_cast<double>(written.file_bytes) / static_cast<double>(stats.points);
   return stats;
+}
+
+
+// The tiles' models joined: code-word indices offset, one spatial order over all patches,
+// code words numbered by first use, as an untiled build leaves them.
+codec::EncodedModel join_tiles(std::vector<codec::TileResult>& tiles, const PointCloud& cloud,
+                               const codec::BuildOptions& build, codec::BuildStats* stats) {
+  codec::EncodedModel model;
+  model.patch_radius = build.patch_radius;
+  model.coverage_radius = build.patch_radius / codec::kPatchOverCoverage;
+  model.spacing = static_cast<float>(build.spacing);
+  model.source_points = cloud.size();
+  model.has_normals = true;
+  model.bounds = cloud.bounding_box();
+  stats->spacing = build.spacing;
+  stats->patch_radius = build.patch_radius;
+  stats->coverage_radius = model.coverage_radius;
+  for (codec::TileResult& tile : tiles) {
+    const auto offset = static_cast<std::uint32_t>(model.codebook.size());
+    for (codec::Codeword& w : tile.model.codebook) model.codebook.push_back(std::move(w));
+    for (codec::PatchInstance p : tile.model.patches) {
+      p.codeword += offset;
+      model.patches.push_back(p);
+    }
+    stats->codebook.candidates_tested += tile.stats.codebook.candidates_tested;
+    stats->codebook.codeword_points += tile.stats.codebook.codeword_points;
+    tile = codec::TileResult();
+  }
+  std::vector<Vec3f> origins;
+  origins.reserve(model.patches.size());
+  for (const codec::PatchInstance& p : model.patches) origins.push_back(p.region_centre());
+  std::vector<codec::PatchInstance> sorted;
+  sorted.reserve(model.patches.size());
+  for (std::uint32_t k : codec::spatial_order(origins, model.bounds)) sorted.push_back(model.patches[k]);
+  model.patches = std::move(sorted);
+  codec::number_codewords_by_first_use(model);
+  return model;
+}
+
+}  // namespace
+
+struct TiledEncoder::Impl {
+  PointCloud cloud;
+  EncodeOptions options;
+  codec::TilePlan plan;
+  codec::BuildOptions build;  // spacing and patch radius set
+  NormalOptions normals;
+  float margin = 0;
+  double seconds_planning = 0;
+
+  // The tile's own points first, then its neighbours' within `reach` of its box.
+  std::vector<std::uint32_t> with_margin(std::size_t t, float reach) const {
+    std::vector<std::uint32_t> indices = plan.points[t];
+    const Box3f box(plan.boxes[t].min() - Vec3f::Constant(reach), plan.boxes[t].max() + Vec3f::Constant(reach));
+    for (std::size_t u = 0; u < plan.boxes.size(); ++u) {
+      if (u == t || !box.intersects(plan.boxes[u])) continue;
+      for (std::uint32_t i : plan.points[u]) {
+        if (box.contains(cloud.positions[i])) indices.push_back(i);
+      }
+    }
+    return indices;
+  }
+};
+
+TiledEncoder::TiledEncoder(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+TiledEncoder::TiledEncoder(TiledEncoder&&) noexcept = default;
+TiledEncoder& TiledEncoder::operator=(TiledEncoder&&) noexcept = default;
+TiledEncoder::~TiledEncoder() = default;
+
+StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions& options) {
+  SSPC_RETURN_IF_ERROR(check_options(options));
+  SSPC_RETURN_IF_ERROR(check_cloud(cloud));
+  if (options.tile_points == 0) return invalid_argument("a tiled encode needs tile_points > 0");
+  const auto start = std::chrono::steady_clock::now();
+  auto impl = std::make_unique<Impl>();
+  Impl& m = *impl;
+  m.cloud = std::move(cloud);
+  m.options = options;
+  m.options.progress = nullptr;
+  m.build = build_options(options);
+  m.build.progress = nullptr;
+  m.normals = options.normals;
+  m.normals.progress = nullptr;
+  m.plan = codec::plan_tiles(m.cloud.positions, options.tile_points);
+  // The spacing over each tile and a margin of 8 of its own spacings (a point at the tile's
+  // border has its nearest neighbour across it: the tile alone read bunny's spacing 4% long),
+  // and the radius from spheres about the tiles' own points counted over a margin of three
+  // times a flat sampling's radius; both the weighted medians over the tiles.
+  std::vector<std::pair<double, std::size_t>> spacings, radii;
+  for (std::size_t t = 0; t < m.plan.boxes.size(); ++t) {
+    if (m.plan.points[t].size() < 16) continue;
+    const double own = nominal_spacing(KdTree3(gather(m.cloud, m.plan.points[t]).positions));
+    if (!(own > 0)) continue;
+    const PointCloud near = gather(m.cloud, m.with_margin(t, static_cast<float>(8 * own)));
+    const double spacing = nominal_spacing(KdTree3(near.positions));
+    if (spacing > 0) spacings.emplace_back(spacing, m.plan.points[t].size());
+  }
+  if (spacings.empty()) return invalid_argument("no tile has 16 distinct points; use larger tiles");
+  m.build.spacing = weighted_median(spacings);
+  const double guess =
+      3 * m.build.spacing * std::sqrt(static_cast<double>(m.build.level.patch_points) / std::numbers::pi);
+  for (std::size_t t = 0; t < m.plan.boxes.size(); ++t) {
+    if (m.plan.points[t].size() < 16) continue;
+    const PointCloud part = gather(m.cloud, m.with_margin(t, static_cast<float>(guess)));
+    const KdTree3 tree(part.positions);
+    radii.emplace_back(codec::radius_for_patch_points(part, tree, m.build.spacing, m.build.level.patch_points,
+                                                      m.plan.points[t].size()),
+                       m.plan.points[t].size());
+  }
+  m.build.patch_radius = static_cast<float>(std::min(weighted_median(radii), bounding_box_diagonal(m.cloud)));
+  m.margin = static_cast<float>(1.5 * double{m.build.patch_radius} + 8 * m.build.spacing);
+  m.seconds_planning = seconds_since(start);
+  return TiledEncoder(std::move(impl));
+}
+
+std::size_t TiledEncoder::tile_count() const { return impl_->plan.boxes.size(); }
+std::size_t TiledEncoder::tile_points(std::size_t t) const { return impl_->plan.points.at(t).size(); }
+
+std::string TiledEncoder::job(std::size_t t) const {
+  codec::TileJob job;
+  job.part = gather(impl_->cloud, impl_->with_margin(t, impl_->margin));
+  job.build = impl_->build;
+  job.build.core_points = impl_->plan.points.at(t).size();
+  job.normals = impl_->normals;
+  return codec::serialise_tile_job(job);
+}
+
+StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, std::span<const std::string> results) {
+  Impl& m = *impl_;
+  if (results.size() != m.plan.boxes.size()) {
+    return invalid_argument("tiled encode: " + std::to_string(results.size()) + " results for " +
+                            std::to_string(m.plan.boxes.size()) + " tiles");
+  }
+  std::vector<codec::TileResult> tiles;
+  tiles.reserve(results.size());
+  for (std::size_t t = 0; t < results.size(); ++t) {
+    auto tile = codec::parse_tile_result(results[t]);
+    if (!tile.ok()) return invalid_argument("tile " + std::to_string(t) + ": " + tile.status().message());
+    tiles.push_back(std::move(*tile));
+  }
+  codec::BuildStats build_stats;
+  codec::EncodedModel model = join_tiles(tiles, m.cloud, m.build, &build_stats);
+  EncodeStats stats;
+  stats.points = m.cloud.size();
+  stats.tiles = m.plan.boxes.size();
+  EncodeOptions options = m.options;
+  return write_model(m.cloud, std::move(model), build_stats, m.build, options, stats, output);
+}
+
+StatusOr<std::string> run_tile_job(std::string_view bytes) {
+  SSPC_ASSIGN_OR_RETURN(codec::TileJob job, codec::parse_tile_job(bytes));
+  if (!job.part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(job.part, job.normals));
+  codec::TileResult result;
+  SSPC_ASSIGN_OR_RETURN(result.model, codec::build_model(job.part, job.build, &result.stats));
+  return codec::serialise_tile_result(result);
+}
+
+StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
+                             const EncodeOptions& options) {
+  SSPC_RETURN_IF_ERROR(check_options(options));
+  SSPC_RETURN_IF_ERROR(check_cloud(cloud));
+  if (options.tile_points > 0 && cloud.size() > options.tile_points) {
+    // The jobs run here one after the other, each in parallel inside: the same bytes as on Dask.
+    const auto start = std::chrono::steady_clock::now();
+    SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan(std::move(cloud), options));
+    std::vector<std::string> results;
+    progress_begin(options.progress, "tiles", tiled.tile_count(), "tiles");
+    for (std::size_t t = 0; t < tiled.tile_count(); ++t) {
+      SSPC_ASSIGN_OR_RETURN(std::string result, run_tile_job(tiled.job(t)));
+      results.push_back(std::move(result));
+      progress_advance(options.progress, 1);
+    }
+    progress_end(options.progress);
+    const double seconds_tiles = seconds_since(start);
+    auto stats = tiled.write(output, results);
+    if (stats.ok()) stats->seconds_codebook = seconds_tiles;  // normals, centres and code books
+    return stats;
+  }
+  EncodeStats stats;
+  stats.points = cloud.size();
+  auto start = std::chrono::steady_clock::now();
+  NormalOptions normal_options = options.normals;
+  normal_options.progress = options.progress;
+  SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
+  stats.seconds_normals = seconds_since(start);
+  const codec::BuildOptions build = build_options(options);
+  codec::BuildStats build_stats;
+  SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
+  return write_model(cloud, std::move(model), build_stats, build, options, stats, output);
 }
 
 }  // namespace sspc
