@@ -4,7 +4,8 @@
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflann-dev libtbb-dev
           libzstd-dev libcli11-dev nlohmann-json3-dev libpng-dev libgtest-dev libbenchmark-dev
-          python3-dev pybind11-dev python3-numpy python3-pytest)  # the last four: the Python package, python/
+          python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package, python/
+          python3-distributed)  # sspc.distributed's Dask tasks
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

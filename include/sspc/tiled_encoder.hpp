@@ -29,6 +29,7 @@ class TiledEncoder {
   ~TiledEncoder();
 
   std::size_t tile_count() const;
+  int level() const;
   std::size_t tile_points(std::size_t t) const;  // the tile's own points (its job carries more)
   // Tile t's job, self-contained bytes for run_tile_job (on this machine or another running the
   // same sspc).

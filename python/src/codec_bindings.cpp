@@ -10,11 +10,14 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
+#include <vector>
 #include <unistd.h>
 
 #include "conversions.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/encoder.hpp"
+#include "sspc/tiled_encoder.hpp"
 
 namespace sspc::python {
 namespace {
@@ -124,15 +127,12 @@ unsigned attribute_bits(const py::object& value) {
   return bits;
 }
 
-py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
-                        int level, std::optional<int> patch_points, std::optional<float> epsilon,
-                        std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
-                        bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
-                        int intensity_step, std::uint64_t tile_points, const std::string& normals,
-                        const py::object& viewpoint,
-                        std::uint64_t seed, int threads, const py::object& progress) {
-  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
-  check(cloud.validate());
+// The options encode() and TiledEncoder take, from their shared keyword arguments (option_args).
+EncodeOptions make_options(int level, std::optional<int> patch_points, std::optional<float> epsilon,
+                           std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits,
+                           bool store_normals, bool full_spheres, bool keep_duplicates, const py::object& attributes,
+                           int colour_quality, int intensity_step, std::uint64_t tile_points,
+                           const std::string& normals, const py::object& viewpoint, std::uint64_t seed) {
   EncodeOptions options;
   options.level = level;
   options.patch_points = patch_points;
@@ -150,6 +150,31 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   options.normals.mode = normal_mode(normals);
   if (!viewpoint.is_none()) options.normals.viewpoint = vec3(viewpoint, "viewpoint");
   options.seed = seed;
+  return options;
+}
+
+auto option_args() {
+  return std::make_tuple(
+      py::arg("level") = 5, py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(),
+      py::arg("tau") = py::none(), py::arg("step") = py::none(), py::arg("position_bits") = py::none(),
+      py::arg("store_normals") = false, py::arg("full_spheres") = false, py::arg("keep_duplicates") = false,
+      py::arg("attributes") = "all", py::arg("colour_quality") = EncodeOptions().colour_quality,
+      py::arg("intensity_step") = 1, py::arg("tile_points") = 0, py::arg("normals") = "auto",
+      py::arg("viewpoint") = py::none(), py::arg("seed") = 1);
+}
+
+py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
+                        int level, std::optional<int> patch_points, std::optional<float> epsilon,
+                        std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
+                        bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
+                        int intensity_step, std::uint64_t tile_points, const std::string& normals,
+                        const py::object& viewpoint,
+                        std::uint64_t seed, int threads, const py::object& progress) {
+  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
+  check(cloud.validate());
+  EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
+                                       full_spheres, keep_duplicates, attributes, colour_quality, intensity_step,
+                                       tile_points, normals, viewpoint, seed);
   CallbackProgress reporter(progress);
   options.progress = reporter.get();
   ThreadLimit limit(threads);
@@ -342,17 +367,20 @@ being the patch's region centre. Raises IndexError out of range.)doc")
       });
 }
 
-}  // namespace
+TiledEncoder plan_tiled(const py::object& cloud_or_positions, int level, std::optional<int> patch_points,
+                        std::optional<float> epsilon, std::optional<float> tau, std::optional<float> step,
+                        std::optional<int> position_bits, bool store_normals, bool full_spheres,
+                        bool keep_duplicates, const py::object& attributes, int colour_quality, int intensity_step,
+                        std::uint64_t tile_points, const std::string& normals, const py::object& viewpoint,
+                        std::uint64_t seed) {
+  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
+  const EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
+                                             full_spheres, keep_duplicates, attributes, colour_quality,
+                                             intensity_step, tile_points, normals, viewpoint, seed);
+  return value_or_raise(without_gil([&] { return TiledEncoder::plan(std::move(cloud), options); }));
+}
 
-void bind_codec(py::module_& m) {
-  m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), py::arg("level") = 5,
-        py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(), py::arg("tau") = py::none(),
-        py::arg("step") = py::none(), py::arg("position_bits") = py::none(), py::arg("store_normals") = false, py::arg("full_spheres") = false,
-        py::arg("keep_duplicates") = false, py::arg("attributes") = "all",
-        py::arg("colour_quality") = EncodeOptions().colour_quality, py::arg("intensity_step") = 1,
-        py::arg("tile_points") = 0,
-        py::arg("normals") = "auto", py::arg("viewpoint") = py::none(), py::arg("seed") = 1, py::arg("threads") = 0,
-        py::arg("progress") = py::none(), R"doc(
+constexpr const char* kEncodeDoc = R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
 
 cloud: a PointCloud or an (N, 3) position array (copied once: the encoder adds normals).
@@ -378,7 +406,66 @@ every 50 ms, possibly from a worker thread; only the callback holds the GIL, whi
 releases. An exception it raises stops the reports and is raised once the encoder returns.
 
 Raises ValueError for options out of range or a cloud of fewer than 16 points, OSError when the
-file cannot be written.)doc");
+file cannot be written.)doc";
+
+void bind_tiled_encoder(py::module_& m) {
+  std::apply(
+      [&](auto... options) {
+        py::class_<TiledEncoder>(m, "TiledEncoder", R"doc(
+A tiled encode split into jobs that may run elsewhere (sspc.distributed runs them on Dask).
+
+TiledEncoder(cloud, *, tile_points, level=5, ...) takes encode's keyword arguments; tile_points
+(> 0) bounds a tile's own points. job(t) gives tile t's self-contained input as bytes, which
+sspc.run_tile_job turns into the tile's result on any machine running this sspc; write(path,
+results) joins the results (in tile order) and writes the model, returning encode's statistics.
+The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
+            .def(py::init(&plan_tiled), py::arg("cloud"), py::kw_only(), options...)
+            .def_property_readonly("tile_count", &TiledEncoder::tile_count, "The number of tiles.")
+            .def("tile_points", &TiledEncoder::tile_points, py::arg("t"), "Tile t's own points.")
+            .def(
+                "job",
+                [](const TiledEncoder& e, std::size_t t) {
+                  if (t >= e.tile_count()) throw py::index_error("tile " + std::to_string(t) + " out of range");
+                  return py::bytes(without_gil([&] { return e.job(t); }));
+                },
+                py::arg("t"), "Tile t's job: bytes for sspc.run_tile_job.")
+            .def(
+                "write",
+                [](TiledEncoder& e, const std::filesystem::path& path, const std::vector<std::string>& results) {
+                  const auto start = std::chrono::steady_clock::now();
+                  const EncodeStats s = value_or_raise(without_gil([&] { return e.write(path, results); }));
+                  const double seconds =
+                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                  return encode_stats(s, e.level(), seconds);
+                },
+                py::arg("path"), py::arg("results"),
+                "Joins the jobs' results (bytes, in tile order) and writes the model; encode's statistics.");
+      },
+      option_args());
+  m.def(
+      "run_tile_job",
+      [](const py::bytes& job, int threads) {
+        const std::string bytes = job;
+        ThreadLimit limit(threads);
+        return py::bytes(value_or_raise(without_gil([&] { return run_tile_job(bytes); })));
+      },
+      py::arg("job"), py::kw_only(), py::arg("threads") = 0, R"doc(
+Runs one tile's job (TiledEncoder.job): normals where needed, patches, code book. Returns the
+tile's result as bytes for TiledEncoder.write. Deterministic whatever `threads` (> 0 caps the
+worker threads); releases the GIL.)doc");
+}
+
+}  // namespace
+
+void bind_codec(py::module_& m) {
+  bind_tiled_encoder(m);
+  std::apply(
+      [&](auto... options) {
+        m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), options...,
+              py::arg("threads") = 0, py::arg("progress") = py::none(), kEncodeDoc);
+      },
+      option_args());
+
   bind_compressed_model(m);
 }
 

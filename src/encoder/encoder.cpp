@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 #include <string>
 
 #include "core/stopwatch.hpp"
@@ -281,12 +282,22 @@ StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions&
   m.normals = options.normals;
   m.normals.progress = nullptr;
   m.plan = codec::plan_tiles(m.cloud.positions, options.tile_points);
-  // The spacing over each tile and a margin of 8 of its own spacings (a point at the tile's
+  // The spacing over a tile and a margin of 8 of its own spacings (a point at the tile's
   // border has its nearest neighbour across it: the tile alone read bunny's spacing 4% long),
   // and the radius from spheres about the tiles' own points counted over a margin of three
   // times a flat sampling's radius; both the weighted medians over the tiles.
+  // Measured on the eight largest tiles (ties to the first): enough for a median, and planning
+  // stays a small serial part of a distributed encode (dragon_scans in 32 tiles: 2.1 s over all
+  // of them, against 1.9 s for all the jobs on one core).
+  std::vector<std::size_t> sampled(m.plan.boxes.size());
+  std::iota(sampled.begin(), sampled.end(), std::size_t{0});
+  std::stable_sort(sampled.begin(), sampled.end(), [&](std::size_t a, std::size_t b) {
+    return m.plan.points[a].size() > m.plan.points[b].size();
+  });
+  sampled.resize(std::min<std::size_t>(sampled.size(), 8));
+  std::sort(sampled.begin(), sampled.end());
   std::vector<std::pair<double, std::size_t>> spacings, radii;
-  for (std::size_t t = 0; t < m.plan.boxes.size(); ++t) {
+  for (const std::size_t t : sampled) {
     if (m.plan.points[t].size() < 16) continue;
     const double own = nominal_spacing(KdTree3(gather(m.cloud, m.plan.points[t]).positions));
     if (!(own > 0)) continue;
@@ -298,7 +309,7 @@ StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions&
   m.build.spacing = weighted_median(spacings);
   const double guess =
       3 * m.build.spacing * std::sqrt(static_cast<double>(m.build.level.patch_points) / std::numbers::pi);
-  for (std::size_t t = 0; t < m.plan.boxes.size(); ++t) {
+  for (const std::size_t t : sampled) {
     if (m.plan.points[t].size() < 16) continue;
     const PointCloud part = gather(m.cloud, m.with_margin(t, static_cast<float>(guess)));
     const KdTree3 tree(part.positions);
@@ -313,6 +324,7 @@ StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions&
 }
 
 std::size_t TiledEncoder::tile_count() const { return impl_->plan.boxes.size(); }
+int TiledEncoder::level() const { return impl_->options.level; }
 std::size_t TiledEncoder::tile_points(std::size_t t) const { return impl_->plan.points.at(t).size(); }
 
 std::string TiledEncoder::job(std::size_t t) const {

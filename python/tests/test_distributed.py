@@ -1,0 +1,47 @@
+"""sspc.distributed: a tiled encode whose tiles run as tasks on a local Dask cluster of worker
+processes writes the same bytes as sspc.encode with the same tiles on one machine."""
+
+import pytest
+
+import sspc
+
+distributed = pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+    with distributed.Client(cluster) as c:
+        yield c
+    cluster.close()
+
+
+def test_tiles_on_dask_give_the_bytes_of_a_local_tiled_encode(bunny, client, tmp_path):
+    import sspc.distributed  # pylint: disable=import-outside-toplevel
+
+    local = tmp_path / "local.sspc"
+    on_dask = tmp_path / "dask.sspc"
+    expected = sspc.encode(bunny, local, tile_points=9000, level=6)
+    stats = sspc.distributed.encode(bunny, on_dask, client=client, tile_points=9000, level=6)
+    assert stats["tiles"] == expected["tiles"] > 1
+    assert stats["dask_workers"] == 2
+    assert on_dask.read_bytes() == local.read_bytes()
+
+
+def test_tiled_encoder_jobs_run_anywhere_in_any_order(bunny, tmp_path):
+    tiled = sspc.TiledEncoder(bunny, tile_points=9000, level=6)
+    jobs = [tiled.job(t) for t in range(tiled.tile_count)]
+    results = [None] * len(jobs)
+    for t in reversed(range(len(jobs))):  # finishing order does not matter
+        results[t] = sspc.run_tile_job(jobs[t])
+    assert sspc.run_tile_job(jobs[0]) == results[0]  # deterministic
+    tiled.write(tmp_path / "a.sspc", results)
+    sspc.encode(bunny, tmp_path / "b.sspc", tile_points=9000, level=6)
+    assert (tmp_path / "a.sspc").read_bytes() == (tmp_path / "b.sspc").read_bytes()
+    with pytest.raises(ValueError, match="results for"):
+        tiled.write(tmp_path / "c.sspc", results[:-1])
+    with pytest.raises(ValueError, match="tile 0"):
+        tiled.write(tmp_path / "c.sspc", [b"junk"] + results[1:])
+    with pytest.raises(RuntimeError):
+        sspc.run_tile_job(b"SSPCTJ01" + b"\0" * 10)
