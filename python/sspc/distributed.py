@@ -49,7 +49,7 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
     caps the threads of one job (default: 1 on a local cluster, whose workers share the cores; all
     of a worker's cores otherwise). The keyword options are sspc.encode's; returns its statistics
     plus `tiles`, `dask_workers` and the seconds of the three stages (plan, tiles, write)."""
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client, LocalCluster, as_completed
 
     if isinstance(cloud, (str, bytes)) or hasattr(cloud, "__fspath__"):
         cloud = read(cloud)
@@ -67,11 +67,22 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         start = time.perf_counter()
         tiled = TiledEncoder(cloud, tile_points=tile_points, **options)
         planned = time.perf_counter()
-        # Largest tiles first, so that a long one does not start last.
+        # Largest tiles first, so that a long one does not start last, and no more jobs in flight
+        # than two a worker: a job holds its tile's points, so the client never holds them all.
         order = sorted(range(tiled.tile_count), key=lambda t: -tiled.tile_points(t))
-        futures = {t: client.submit(_run_job, tiled.job(t), job_threads, pure=False, key=f"sspc-tile-{t}")
-                   for t in order}
-        results = [futures[t].result() for t in range(tiled.tile_count)]
+        in_flight = max(2, 2 * len(client.scheduler_info()["workers"]))
+        results = [None] * tiled.tile_count
+        pending = as_completed()
+        owner = {}
+        for t in order:
+            if pending.count() >= in_flight:
+                done = next(pending)
+                results[owner.pop(done.key)] = done.result()
+            future = client.submit(_run_job, tiled.job(t), job_threads, pure=False, key=f"sspc-tile-{t}")
+            owner[future.key] = t
+            pending.add(future)
+        for done in pending:
+            results[owner.pop(done.key)] = done.result()
         ran = time.perf_counter()
         stats = tiled.write(path, results)
         stats["seconds"] = time.perf_counter() - start
