@@ -52,7 +52,7 @@ void bounds(const RTCBoundsFunctionArguments* args) {
                               box.max().x(), box.max().y(), box.max().z(), 0};
 }
 
-// Called for a packet of N rays (N = 1 from rtcIntersect1, up to 16 from rtcIntersectN), the
+// Called for a packet of N rays (1 from rtcIntersect1; 4, 8 or 16 from rtcIntersect4/8/16), the
 // ray and hit fields stored as structures of arrays; valid[i] is -1 for the rays to trace.
 void intersect(const RTCIntersectFunctionNArguments* args) {
   auto* geometry = static_cast<SspcGeometry*>(args->geometryUserPtr);
