@@ -5,11 +5,17 @@
 # build seconds, Mrays/s (median of 3 renders), hits, MLS evaluations per hit, scene bytes per
 # original point (peak of the brick cache for a compressed model), peak memory, and, for the
 # compressed model, the image PSNR over hit pixels and the pixels hit in one only against the
-# render of the same model's decode (docs/METRICS.md, "Images"). Writes
+# render of the same model's decode (docs/METRICS.md, "Images"). Rays per CPU-second (every
+# thread's time while rendering) compare the renderers whatever their threads. When the build has
+# Embree 3, each scan also gets the reference a fast raw-point renderer gives: Embree's oriented
+# discs on the source points with the uncompressed scene's normals, DISC_RADIUS point spacings
+# wide, through the same camera, pixels and shading (bench/embree_discs.cpp; rtcIntersect1 per
+# ray, and packets of 16 rays on 4×4 tiles), compared with the uncompressed render. Writes
 # docs/results/render_bench.csv and its table in docs/RESULTS.md.
 #
 # Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
 #   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="0 5 9"   BUDGETS="512 64" (MiB)
+#   DISC_RADIUS=1.5 (point spacings)
 #   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
 # Installs what it needs (a release build, Debian's time package, python3).
 set -euo pipefail
@@ -20,6 +26,7 @@ SIZE="${SIZE:-1024x1024}"
 THREADS="${THREADS:-2}"
 LEVELS="${LEVELS:-0 5 9}"
 BUDGETS="${BUDGETS:-512 64}"
+DISC_RADIUS="${DISC_RADIUS:-1.5}"
 WORK="${WORK:-/tmp/sspc_bench_render}"
 if [ ! -d "$data" ]; then
   echo "bench_render: no data directory $data; nothing to measure" >&2
@@ -35,11 +42,20 @@ if ((${#need[@]})); then
   $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
 fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build --target sspc_cli >/dev/null
+targets=(sspc_cli)
+# The Embree reference is built when CMake found Embree 3 and the benchmarks are on.
+if grep -q '^embree_discs_bench:' <<<"$(cmake --build build --target help)"; then targets+=(embree_discs_bench); fi
+cmake --build build --target "${targets[@]}" >/dev/null
 sspc="$PWD/build/sspc"
+discs=""
+if [[ " ${targets[*]} " == *" embree_discs_bench "* ]]; then
+  discs="$PWD/build/bench/embree_discs_bench"
+else
+  echo "bench_render: no Embree 3 in the build; the embree-discs rows are skipped" >&2
+fi
 mkdir -p "$WORK" docs/results
 csv=docs/results/render_bench.csv
-echo "scan,model,points,size,threads,build_s,render_s,mrays_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
+echo "scan,model,points,size,threads,build_s,render_s,mrays_s,mrays_cpu_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
 
 # One configuration: three renders, the median render time; build time and memory of the first.
 measure() {  # scan model-label input [render options]
@@ -58,10 +74,32 @@ runs = [json.load(open(p)) for p in sys.argv[6:]]
 runs.sort(key=lambda r: r["render_seconds"])
 m = runs[len(runs) // 2]
 print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
-      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["hits"]},{m["evaluations_per_hit"]:.1f},'
+      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},'
+      f'{m["hits"]},{m["evaluations_per_hit"]:.1f},'
       f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f},'
       + (f'{m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"},{100 * m["hit_one_only_fraction"]:.3f}'
          if "psnr_hit_db" in m else ","))
+EOF
+  tail -1 "$csv"
+}
+
+# Embree's discs: one process renders the view 3 times and reports the median (embree_discs_bench
+# --repeat); scene bytes are Embree's peak allocation (BVH and buffers), the image is compared
+# with the uncompressed render.
+measure_discs() {  # scan model-label cloud packet [camera options]
+  local scan="$1" label="$2" input="$3" packet="$4"
+  shift 4
+  /usr/bin/time -f "%M" -o "$WORK/rss" "$discs" "$input" --threads "$THREADS" --size "$SIZE" --repeat 3 \
+    --radius "$DISC_RADIUS" --packet "$packet" -o "$WORK/frame_$label.png" --compare "$WORK/frame_uncompressed.png" \
+    "$@" > "$WORK/discs.json"
+  python3 - "$scan" "$label" "$SIZE" "$THREADS" "$(tail -1 "$WORK/rss")" "$WORK/discs.json" >> "$csv" <<'EOF'
+import json, sys
+scan, label, size, threads, rss, path = sys.argv[1:7]
+m = json.load(open(path))
+psnr = m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"
+print(f'{scan},{label},{m["points"]},{size},{threads},{m["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
+      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},{m["hits"]},,'
+      f'{m["scene_bytes"] / m["points"]:.2f},{int(rss) / 1024:.0f},{psnr},{100 * m["hit_one_only_fraction"]:.3f}')
 EOF
   tail -1 "$csv"
 }
@@ -85,6 +123,10 @@ print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
   plain="$WORK/$scan.normals.ply"
   [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
   measure "$scan" uncompressed "$plain" "${camera[@]}"
+  if [ -n "$discs" ]; then
+    measure_discs "$scan" embree-discs "$plain" 1 "${camera[@]}"
+    measure_discs "$scan" embree-discs-packet16 "$plain" 16 "${camera[@]}"
+  fi
   for level in $LEVELS; do
     model="$WORK/$scan.l$level.sspc"
     [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
@@ -101,23 +143,29 @@ print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
 done
 
 echo
-python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" <<'EOF'
+python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" "$DISC_RADIUS" <<'EOF'
 import csv, datetime, sys
 sys.path.insert(0, "scripts")
 from results_section import replace_section
-path, results, commit, cores = sys.argv[1:]
+path, results, commit, cores, disc_radius = sys.argv[1:]
 rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
          "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera of the source (its "
          "bounding box seen from +z), the same for every model of a scan, Mrays/s over all rays (median of 3 frames), scene bytes per original point "
          "(points, normals and grids; a compressed model's the peak of its brick cache under the budget named), "
          "peak memory of the whole process; a compressed model's image PSNR over the pixels hit and the pixels "
-         "hit in one image only, against the render of its own decode (`decoded-lN`).", "",
-         "| scan | model | build s | Mrays/s | rays hit | MLS evaluations per hit | scene bytes/point | peak MiB "
-         "| PSNR hit dB | hit in one only % |",
-         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+         "hit in one image only, against the render of its own decode (`decoded-lN`). Mrays per CPU-second: "
+         "rays over the CPU time of every thread while rendering. `embree-discs`: the reference a fast "
+         "raw-point renderer gives, Embree 3's oriented discs on the source points and the uncompressed "
+         f"scene's normals, of radius {disc_radius} point spacings, through the same camera, pixels and shading "
+         "(`bench/embree_discs.cpp`; one `rtcIntersect1` a ray, or packets of 16 rays on 4×4 tiles), median of "
+         "3 frames in one process, scene bytes Embree's peak allocation, and its image against the "
+         "uncompressed render.", "",
+         "| scan | model | build s | Mrays/s | Mrays/CPU-s | rays hit | MLS evaluations per hit | scene bytes/point "
+         "| peak MiB | PSNR hit dB | hit in one only % |",
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 for r in rows:
-    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["hits"]} | '
+    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["mrays_cpu_s"]} | {r["hits"]} | '
                  f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} | '
                  f'{r["psnr_hit_db"]} | {r["hit_one_only_percent"]} |')
 print("\n".join(lines))

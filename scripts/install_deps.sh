@@ -6,6 +6,9 @@ packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflan
           libzstd-dev libcli11-dev nlohmann-json3-dev libpng-dev libgtest-dev libbenchmark-dev
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package, python/
           python3-distributed)  # sspc.distributed's Dask tasks
+# Embree 3, optional for the build: the example examples/embree_user_geometry.cpp (the test
+# example.embree) and the reference renderer of scripts/bench_render.sh. Debian builds it for amd64.
+if [ "$(dpkg --print-architecture)" = amd64 ]; then packages+=(libembree-dev); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

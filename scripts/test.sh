@@ -19,9 +19,14 @@ stage_done() { echo "== $1: $((SECONDS - stage_start)) s (total $SECONDS s)"; st
 echo "== release build (-Werror)"
 cmake -S . -B build-release -G Ninja -DCMAKE_BUILD_TYPE=Release -DSSPC_WERROR=ON
 release_targets=(sspc_cli sspc_cli_tests sspc_example)
+# The Embree example and reference renderer exist when CMake found Embree 3 (the test
+# example.embree). The list is read whole first: grep -q leaving a pipe early fails it under pipefail.
+build_targets="$(cmake --build build-release --target help)"
+if grep -q '^sspc_embree_example:' <<<"$build_targets"; then release_targets+=(sspc_embree_example); fi
 if grep -q '^SSPC_BUILD_PYTHON:BOOL=ON' build-release/CMakeCache.txt; then release_targets+=(_sspc); fi
 if grep -q '^SSPC_BUILD_BENCH:BOOL=ON' build-release/CMakeCache.txt; then
   release_targets+=(eval_bench normals_bench io_bench decode_bench make_variants)
+  if grep -q '^embree_discs_bench:' <<<"$build_targets"; then release_targets+=(embree_discs_bench); fi
 fi
 cmake --build build-release -j "$jobs" --target "${release_targets[@]}"
 stage_done "release build"

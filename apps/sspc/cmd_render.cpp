@@ -1,5 +1,7 @@
 // sspc render IN -o OUT.png: ray-trace the MLS surface of a point cloud, or of a compressed model
 // directly, decoding only the bricks its rays reach (paper §5; docs/ARCHITECTURE.md, "Rendering").
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -137,6 +139,18 @@ std::string default_times_path(const std::string& output) {
   return p.replace_extension(".csv").string();
 }
 
+// CPU seconds of the whole process so far, every thread, user and system: a frame's CPU time is
+// what rays per CPU-second compare across renderers whatever their thread counts
+// (scripts/bench_render.sh against Embree's discs).
+double cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 // "WIDTHxHEIGHT", each side 1..16384 pixels.
 bool parse_size(const std::string& text, int& w, int& h) {
   const auto x = text.find('x');
@@ -251,6 +265,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   }
 
   std::vector<RenderStats> frames;
+  double render_cpu_seconds = 0;
   std::optional<ImageComparison> comparison;
   if (sequence) progress_begin(progress.get(), "render", cameras.size(), "frames");
   std::string csv =
@@ -260,7 +275,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     options.camera = cameras[f];
     options.progress = cameras.size() == 1 ? progress.get() : nullptr;
     RenderStats stats;
+    const double cpu_start = cpu_seconds();
     auto image = (*scene)->render(options, &stats);
+    render_cpu_seconds += cpu_seconds() - cpu_start;
     if (!image.ok()) {
       return report_failure(image.status().with_context(o.input + (sequence ? " frame " + std::to_string(f) : "")));
     }
@@ -329,6 +346,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     json["render_seconds"] = total.render_seconds;
     json["frame_seconds_median"] = median;
     json["rays_per_second"] = rays_per_second;
+    json["render_cpu_seconds"] = render_cpu_seconds;
+    json["rays_per_cpu_second"] =
+        render_cpu_seconds > 0 ? static_cast<double>(total.rays) / render_cpu_seconds : 0.0;
     json["scene_bytes"] = bytes;
     json["scene_bytes_per_point"] = points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0;
     json["bytes_read"] = total.bytes_read;

@@ -113,7 +113,15 @@ class RenderScene {
   virtual StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min = 0,
                                                     float t_max = std::numeric_limits<float>::infinity()) const = 0;
 
+  // The box of the scene's points (a compressed model's: of its source's), which frame_bounds()
+  // frames.
   virtual Box3f bounds() const = 0;
+  // A box holding every hit intersect() can return, for a host ray tracer's bounding box of the
+  // scene (an Embree user geometry's bounds callback): the MLS surface reaches up to its support
+  // radius beyond the points, and a compressed model's decoded points beyond its source's
+  // bounds by up to the codec's error, so bounds() is not enough: a ray that meets the surface
+  // only there never enters it. Contains bounds().
+  virtual Box3f surface_bounds() const = 0;
   double build_seconds() const { return build_seconds_; }
   // Bytes the scene holds after building it (a brick scene's cache comes on top, up to its
   // budget: RenderStats::scene_bytes reports its peak).

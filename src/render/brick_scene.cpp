@@ -35,6 +35,12 @@ Status BrickScene::layout(const Box3f& bounds, float edge, std::uint64_t budget_
   return Status();
 }
 
+Box3f BrickScene::surface_bounds() const {
+  const Box3f grid(origin_, origin_ + edge_ * Vec3f(static_cast<float>(dims_[0]), static_cast<float>(dims_[1]),
+                                                    static_cast<float>(dims_[2])));
+  return grid.merged(bounds_);
+}
+
 int BrickScene::brick_coordinate(float v, int axis) const {
   const float c = std::floor((v - origin_[axis]) / edge_);
   if (!(c > 0)) return 0;

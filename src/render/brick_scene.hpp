@@ -34,6 +34,8 @@ class BrickScene : public RenderScene {
   StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
                                             float t_max) const override;
   Box3f bounds() const override { return bounds_; }
+  // The grid of bricks, to which trace() clips every ray.
+  Box3f surface_bounds() const override;
 
  protected:
   // Lays the grid over `bounds` (which become bounds() unless set before) with bricks of edge

@@ -164,6 +164,12 @@ void MlsSurface::for_each_point(Visit&& visit) const {
   }
 }
 
+Box3f MlsSurface::box() const {
+  if (size_ == 0) return Box3f();
+  return {origin_, origin_ + Vec3f(static_cast<float>(dims_[0]) * cell_[0], static_cast<float>(dims_[1]) * cell_[1],
+                                   static_cast<float>(dims_[2]) * cell_[2])};
+}
+
 std::size_t MlsSurface::memory_bytes() const {
   return 6 * size_ * sizeof(float) + ids_.size() * sizeof(std::uint32_t) + start_.size() * sizeof(std::uint32_t) +
          near_.size() * sizeof(std::uint64_t);

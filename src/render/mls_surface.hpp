@@ -72,6 +72,9 @@ class MlsSurface {
   // points there.
   std::uint32_t nearest_id(const Vec3f& x) const;
 
+  // The grid's box, the points' widened by r: intersect() clips rays to it, so every hit lies
+  // inside. Empty without points.
+  Box3f box() const;
   float bandwidth() const { return h_; }
   float support_radius() const { return radius_; }
   std::size_t size() const { return size_; }

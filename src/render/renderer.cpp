@@ -66,6 +66,7 @@ class PointCloudScene final : public RenderScene {
   }
 
   Box3f bounds() const override { return bounds_; }
+  Box3f surface_bounds() const override { return surface_.box().merged(bounds_); }
 
   void set_build(double seconds) {
     build_seconds_ = seconds;

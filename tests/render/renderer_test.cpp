@@ -290,6 +290,51 @@ TEST(Renderer, IntersectIsTheRayOfTheImage) {
   }
 }
 
+// surface_bounds() holds every hit intersect() returns, which bounds() does not: a square of
+// points' MLS surface reaches beyond its edges (up to the support radius), where a ray from
+// above meets it without entering the points' box, and a host ray tracer culling rays by
+// bounds() would lose those hits. For a cloud, a paged cloud and a compressed model.
+TEST(Renderer, SurfaceBoundsHoldEveryHit) {
+  PointCloud square;
+  const int side = 40;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      square.positions.emplace_back(static_cast<float>(x) / (side - 1), static_cast<float>(y) / (side - 1), 0.0f);
+      square.normals.emplace_back(Vec3f::UnitZ());
+    }
+  }
+  test::TempDir dir;
+  const auto path = dir.path() / "square.sspc";
+  ASSERT_TRUE(encode(square, path, EncodeOptions{}).ok());
+  auto opened = CompressedModel::open(path);
+  ASSERT_TRUE(opened.ok());
+  auto cloud_scene = RenderScene::from_point_cloud(square);
+  auto paged_scene = RenderScene::from_point_cloud_paged(square, 1.5f, std::uint64_t{1} << 30, dir.path());
+  auto model_scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(opened).value()));
+  ASSERT_TRUE(cloud_scene.ok() && paged_scene.ok() && model_scene.ok());
+  for (const auto* s : {cloud_scene->get(), paged_scene->get(), model_scene->get()}) {
+    const Box3f points = s->bounds(), surface = s->surface_bounds();
+    EXPECT_TRUE(surface.contains(points));
+    int hits = 0, beyond_points = 0;
+    for (int j = 0; j <= 60; ++j) {
+      for (int i = 0; i <= 60; ++i) {
+        const Vec3f o(-0.15f + 1.3f * static_cast<float>(i) / 60, -0.15f + 1.3f * static_cast<float>(j) / 60, 1.0f);
+        auto hit = s->intersect(o, -Vec3f::UnitZ());
+        ASSERT_TRUE(hit.ok()) << hit.status().to_string();
+        if (!*hit) continue;
+        ++hits;
+        const Vec3f p = o - (*hit)->t * Vec3f::UnitZ();
+        EXPECT_LE(surface.exteriorDistance(p), 1e-6f) << p.transpose();
+        if (points.exteriorDistance(p) > 0) ++beyond_points;
+      }
+    }
+    EXPECT_GT(hits, 2000);
+    if (s == cloud_scene->get()) {
+      EXPECT_GT(beyond_points, 0);
+    }
+  }
+}
+
 // compare_images on a worked example: two hit pixels differing by 10 in every channel (MSE 100,
 // 10·log10(255²/100) = 28.13 dB), one pixel hit in the first only, one missed by both.
 TEST(Renderer, ImageComparisonOfAKnownDifference) {
