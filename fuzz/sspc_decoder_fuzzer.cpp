@@ -35,21 +35,6 @@ bool same_cloud(const PointCloud& a, const PointCloud& b) {
          a.las.number_of_returns == b.las.number_of_returns;
 }
 
-template <typename T>
-void append_range(std::vector<T>& dst, const std::vector<T>& src) {
-  dst.insert(dst.end(), src.begin(), src.end());
-}
-
-void append(PointCloud& dst, const PointCloud& src) {
-  append_range(dst.positions, src.positions);
-  append_range(dst.normals, src.normals);
-  append_range(dst.colours, src.colours);
-  append_range(dst.las.intensity, src.las.intensity);
-  append_range(dst.las.classification, src.las.classification);
-  append_range(dst.las.return_number, src.las.return_number);
-  append_range(dst.las.number_of_returns, src.las.number_of_returns);
-}
-
 void check_model(const std::string& bytes) {
   auto opened = CompressedModel::from_bytes(bytes);
   if (!opened.ok()) {
@@ -83,7 +68,7 @@ void check_model(const std::string& bytes) {
       SSPC_FUZZ_CHECK(record->codeword < model.codeword_count());
       auto part = model.decode_patch(k);
       SSPC_FUZZ_CHECK(part.ok());
-      append(joined, *part);
+      joined.append(*part);
     }
     SSPC_FUZZ_CHECK(same_cloud(joined, *all));
 

@@ -33,14 +33,7 @@ if [ ! -d "$data" ]; then
   exit 0
 fi
 
-bash scripts/install_deps.sh
-need=()
-[ -x /usr/bin/time ] || need+=(time)
-command -v python3 >/dev/null || need+=(python3)
-if ((${#need[@]})); then
-  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
-  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
-fi
+bash scripts/install_deps.sh time
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 targets=(sspc_cli)
 # The Embree reference is built when CMake found Embree 3 and the benchmarks are on.

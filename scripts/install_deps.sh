@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Installs what sspc needs to build and test, from Debian's packages. Skips apt when all are
+# Installs what sspc needs to build and test, from Debian's packages, and the packages named as
+# arguments. Skips apt when all are
 # present, so repeated runs cost nothing.
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libnanoflann-dev libtbb-dev
           libzstd-dev libcli11-dev nlohmann-json3-dev libpng-dev libgtest-dev libbenchmark-dev
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package, python/
           python3-distributed)  # sspc.distributed's Dask tasks
+packages+=("$@")  # what a measuring script needs besides (draco, time, python3-matplotlib, ...)
 # Embree 3, optional for the build: the example examples/embree_user_geometry.cpp (the test
 # example.embree) and the reference renderer of scripts/bench_render.sh. Debian builds it for amd64.
 if [ "$(dpkg --print-architecture)" = amd64 ]; then packages+=(libembree-dev); fi

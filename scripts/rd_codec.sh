@@ -25,16 +25,7 @@ if [ ! -d "$data" ]; then
   exit 0
 fi
 
-bash scripts/install_deps.sh
-need=()
-command -v draco_encoder >/dev/null || need+=(draco)
-[ -x /usr/bin/time ] || need+=(time)
-command -v python3 >/dev/null || need+=(python3)
-/usr/bin/python3 -c 'import matplotlib' 2>/dev/null || need+=(python3-matplotlib)
-if ((${#need[@]})); then
-  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
-  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
-fi
+bash scripts/install_deps.sh draco time python3-matplotlib
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build --target sspc_cli >/dev/null
 sspc=build/sspc

@@ -29,15 +29,7 @@ fi
 # Progress only for a person watching; a pipe or a log gets the results alone.
 say() { if [ -t 2 ]; then echo "$*" >&2; fi; }
 
-bash scripts/install_deps.sh
-need=()
-command -v draco_encoder >/dev/null || need+=(draco)
-command -v python3 >/dev/null || need+=(python3)
-/usr/bin/python3 -c 'import numpy' 2>/dev/null || need+=(python3-numpy)
-if ((${#need[@]})); then
-  SUDO=""; [ "$(id -u)" != 0 ] && SUDO=sudo
-  $SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q "${need[@]}"
-fi
+bash scripts/install_deps.sh draco python3-numpy
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build --target sspc_cli >/dev/null
 sspc=build/sspc

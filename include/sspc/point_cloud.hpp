@@ -118,6 +118,10 @@ struct PointCloud {
 
   void reserve(std::size_t n, bool with_normals, bool with_colours);
 
+  // Appends `other`'s points with every per-point array (normals, colours, the LAS fields). The
+  // two clouds must carry the same arrays (this one may be empty); origin and metadata stay.
+  void append(const PointCloud& other);
+
   // Axis-aligned bounds of the positions; an empty box for an empty cloud.
   Box3f bounding_box() const;
 

@@ -130,23 +130,6 @@ class PreloadedSource final : public BlockSource {
   }
 };
 
-template <typename T>
-void append_range(std::vector<T>& dst, const std::vector<T>& src) {
-  dst.insert(dst.end(), src.begin(), src.end());
-}
-
-// The per-point arrays a decode fills: positions, normals and colours, and the attributes
-// part's LAS fields.
-void append(PointCloud& dst, const PointCloud& src) {
-  append_range(dst.positions, src.positions);
-  append_range(dst.normals, src.normals);
-  append_range(dst.colours, src.colours);
-  append_range(dst.las.intensity, src.las.intensity);
-  append_range(dst.las.classification, src.las.classification);
-  append_range(dst.las.return_number, src.las.return_number);
-  append_range(dst.las.number_of_returns, src.las.number_of_returns);
-}
-
 // `src`'s points inside `box` (inclusive), with their attributes, appended to `dst`.
 void append_inside(PointCloud& dst, const PointCloud& src, const Box3f& box) {
   auto keep = [&](const auto& from, auto& to) {
@@ -240,7 +223,7 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
   if (clip != nullptr) {
     append_inside(out, part, *clip);
   } else {
-    append(out, part);
+    out.append(part);
   }
   return Status();
 }
@@ -422,7 +405,7 @@ StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) c
   PointCloud out;
   out.reserve(total, reader.header().has_normals(), info().has_colours);
   for (PointCloud& p : parts) {
-    append(out, p);
+    out.append(p);
     p = PointCloud();
   }
   if (options.patch_of != nullptr) {

@@ -11,6 +11,29 @@ void PointCloud::reserve(std::size_t n, bool with_normals, bool with_colours) {
   if (with_colours) colours.reserve(n);
 }
 
+void PointCloud::append(const PointCloud& other) {
+  auto add = [](auto& to, const auto& from) { to.insert(to.end(), from.begin(), from.end()); };
+  add(positions, other.positions);
+  add(normals, other.normals);
+  add(colours, other.colours);
+  LasPointAttributes& a = las;
+  const LasPointAttributes& b = other.las;
+  add(a.intensity, b.intensity);
+  add(a.return_number, b.return_number);
+  add(a.number_of_returns, b.number_of_returns);
+  add(a.classification, b.classification);
+  add(a.classification_flags, b.classification_flags);
+  add(a.scan_angle, b.scan_angle);
+  add(a.scan_flags, b.scan_flags);
+  add(a.user_data, b.user_data);
+  add(a.point_source_id, b.point_source_id);
+  add(a.gps_time, b.gps_time);
+  add(a.rgb, b.rgb);
+  add(a.nir, b.nir);
+  add(a.extra_bytes, b.extra_bytes);
+  if (a.extra_bytes_per_point == 0) a.extra_bytes_per_point = b.extra_bytes_per_point;
+}
+
 Box3f PointCloud::bounding_box() const {
   Box3f box;  // Eigen's default box is empty
   for (const Vec3f& p : positions) box.extend(p);
