@@ -102,7 +102,7 @@ print(e["colour_bytes"])' "$tmp/encode.json")
     EVAL_JSON="$tmp/eval.json" row sspc "quality $quality" "$(stat -c %s "$tmp/m.sspc")" "$colour" ""
   done
 else
-  sspc_note="$sspc encode has no --colour-quality option yet (colour coding is being added to the encoder), so the sspc rows are missing; rebuild and rerun once it has landed."
+  sspc_note="$sspc encode has no --colour-quality option (an sspc older than per-point colours), so the sspc rows are missing; rebuild and rerun."
   echo "rd_colour: $sspc_note" >&2
 fi
 mv "$csv.tmp" "$csv"

@@ -76,6 +76,13 @@ py::array estimate(const py::object& cloud_or_positions, int k, const py::object
   return owning_array<float>(std::move(cloud.normals), {n, 3});
 }
 
+// A LAS field of the cloud as a read-only 1-D view kept alive by the cloud, or None.
+template <auto kField>
+py::object las_column(py::object self) {
+  const auto& values = self.cast<const PointCloud&>().las.*kField;
+  return values.empty() ? py::object(py::none()) : py::object(column_view(values, self));
+}
+
 }  // namespace
 
 void bind_point_cloud(py::module_& m) {
@@ -116,34 +123,14 @@ memory (no copy), valid as long as any of them or the cloud is alive; copy one t
             return rgb_rows_view(cloud.colours, self);
           },
           "(N, 3) uint8 RGB, read-only view, or None when the cloud has none.")
-      .def_property_readonly(
-          "intensity",
-          [](py::object self) -> py::object {
-            const auto& v = self.cast<const PointCloud&>().las.intensity;
-            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
-          },
-          "(N,) uint16 LAS intensity, read-only view, or None.")
-      .def_property_readonly(
-          "classification",
-          [](py::object self) -> py::object {
-            const auto& v = self.cast<const PointCloud&>().las.classification;
-            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
-          },
-          "(N,) uint8 LAS classification, read-only view, or None.")
-      .def_property_readonly(
-          "return_number",
-          [](py::object self) -> py::object {
-            const auto& v = self.cast<const PointCloud&>().las.return_number;
-            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
-          },
-          "(N,) uint8 LAS return number, read-only view, or None.")
-      .def_property_readonly(
-          "number_of_returns",
-          [](py::object self) -> py::object {
-            const auto& v = self.cast<const PointCloud&>().las.number_of_returns;
-            return v.empty() ? py::object(py::none()) : py::object(column_view(v, self));
-          },
-          "(N,) uint8 LAS number of returns, read-only view, or None.")
+      .def_property_readonly("intensity", las_column<&LasPointAttributes::intensity>,
+                             "(N,) uint16 LAS intensity, read-only view, or None.")
+      .def_property_readonly("classification", las_column<&LasPointAttributes::classification>,
+                             "(N,) uint8 LAS classification, read-only view, or None.")
+      .def_property_readonly("return_number", las_column<&LasPointAttributes::return_number>,
+                             "(N,) uint8 LAS return number, read-only view, or None.")
+      .def_property_readonly("number_of_returns", las_column<&LasPointAttributes::number_of_returns>,
+                             "(N,) uint8 LAS number of returns, read-only view, or None.")
       .def("__len__", &PointCloud::size, "The number of points.")
       .def("__repr__", &repr)
       .def(

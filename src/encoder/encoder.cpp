@@ -368,10 +368,9 @@ StatusOr<std::string> run_tile_job(std::string_view bytes) {
 
 StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
                              const EncodeOptions& options) {
-  SSPC_RETURN_IF_ERROR(check_options(options));
-  SSPC_RETURN_IF_ERROR(check_cloud(cloud));
   if (options.tile_points > 0 && cloud.size() > options.tile_points) {
     // The jobs run here one after the other, each in parallel inside: the same bytes as on Dask.
+    // TiledEncoder::plan checks the options and the cloud.
     const auto start = std::chrono::steady_clock::now();
     SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan(std::move(cloud), options));
     std::vector<std::string> results;
@@ -387,6 +386,8 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
     if (stats.ok()) stats->seconds_codebook = seconds_tiles;  // normals, centres and code books
     return stats;
   }
+  SSPC_RETURN_IF_ERROR(check_options(options));
+  SSPC_RETURN_IF_ERROR(check_cloud(cloud));
   EncodeStats stats;
   stats.points = cloud.size();
   auto start = std::chrono::steady_clock::now();
