@@ -150,6 +150,33 @@ Status AtomicFileWriter::write(const void* data, std::size_t size) {
   return Status();
 }
 
+Status AtomicFileWriter::flush() {
+  if (file_ == nullptr) return internal_error("AtomicFileWriter::flush before open");
+  if (std::fflush(file_) != 0) {
+    const std::string why = errno_text();
+    abandon();
+    return io_error(target_.string() + ": write failed: " + why);
+  }
+  return Status();
+}
+
+Status AtomicFileWriter::write_at(std::uint64_t offset, std::string_view bytes) {
+  SSPC_RETURN_IF_ERROR(flush());
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = pwrite(fileno(file_), bytes.data() + done, bytes.size() - done,
+                             static_cast<off_t>(offset + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string why = n < 0 ? errno_text() : "no progress";
+      abandon();
+      return io_error(target_.string() + ": write failed: " + why);
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  return Status();
+}
+
 Status AtomicFileWriter::commit() {
   if (file_ == nullptr) return internal_error("AtomicFileWriter::commit before open");
   if (std::fflush(file_) != 0 || fsync(fileno(file_)) != 0) {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <span>
@@ -32,6 +33,12 @@ class AtomicFileWriter {
   Status open(const std::filesystem::path& target);
   Status write(const void* data, std::size_t size);
   Status write(std::string_view text) { return write(text.data(), text.size()); }
+  // Overwrites bytes already written at `offset` (a header filled in at the end); the next
+  // write() still appends.
+  Status write_at(std::uint64_t offset, std::string_view bytes);
+  // Flushes what was written to the temporary file, so that a reader of temporary_path() sees it.
+  Status flush();
+  const std::filesystem::path& temporary_path() const { return temp_; }
   // Flushes, syncs and renames the temporary file over the target.
   Status commit();
   // Removes the temporary file; the target is left as it was.

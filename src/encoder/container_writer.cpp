@@ -114,10 +114,7 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
   }
   if (const AttributeParams& a = o.attributes; a.channels != 0) {
-    if ((a.channels & ~kKnownChannels) != 0 || o.attribute_source == nullptr ||
-        (channels_present(*o.attribute_source) & a.channels) != a.channels) {
-      return invalid_argument("attributes asked for that the source does not have");
-    }
+    if ((a.channels & ~kKnownChannels) != 0) return invalid_argument("unknown attribute channels");
     if (o.format_version < 3 || model.has_colours) {
       return invalid_argument("per-patch attributes need format version 3 and no code-word colours");
     }
@@ -217,67 +214,345 @@ std::string encode_header(const ContainerHeader& h) {
   return out;
 }
 
-// The attributes part (FORMAT.md, "Attributes") for the model whose geometry `geometry` holds:
-// decodes it as a reader will, gives each decoded point the values of its nearest source point,
-// and codes them patch by patch.
-StatusOr<std::string> encode_attribute_part(std::string geometry, const ContainerHeader& h,
-                                            const QuantOptions& options, ContainerStats* stats) {
-  const AttributeParams& params = options.attributes;
-  const PointCloud& source = *options.attribute_source;
-  SSPC_ASSIGN_OR_RETURN(const CompressedModel model, CompressedModel::from_bytes(std::move(geometry)));
-  std::vector<std::uint32_t> patch_of;
-  DecodeOptions decode;
-  decode.patch_of = &patch_of;
-  SSPC_ASSIGN_OR_RETURN(PointCloud decoded, model.decode_all(decode));
-  // Each patch's points are contiguous and in patch order.
-  std::vector<std::size_t> begin(h.patch_count + 1, decoded.size());
-  for (std::size_t i = decoded.size(); i-- > 0;) begin[patch_of[i]] = i;
-  for (std::size_t k = h.patch_count; k-- > 0;) begin[k] = std::min(begin[k], begin[k + 1]);
+// Where the container's bytes go: a string, or a temporary file that finish() renames over the
+// target. Both can be read back as a model before the end (the attributes are coded on what the
+// geometry decodes to).
+class Sink {
+ public:
+  virtual ~Sink() = default;
+  virtual Status append(std::string_view bytes) = 0;
+  virtual Status write_at(std::uint64_t offset, std::string_view bytes) = 0;
+  virtual std::uint64_t size() const = 0;
+  virtual StatusOr<CompressedModel> open_model() = 0;  // the bytes written so far
+  virtual Status commit() = 0;
+  virtual std::string take() { return {}; }
+};
 
-  const KdTree3 tree(source.positions);
-  std::vector<std::uint32_t> nearest(decoded.size());
-  parallel_for(0, decoded.size(), 4096, [&](std::size_t i) {
-    float d2 = 0;
-    nearest[i] = static_cast<std::uint32_t>(tree.nearest(decoded.positions[i], &d2));
+class StringSink final : public Sink {
+ public:
+  Status append(std::string_view bytes) override {
+    out_ += bytes;
+    return Status();
+  }
+  Status write_at(std::uint64_t offset, std::string_view bytes) override {
+    out_.replace(static_cast<std::size_t>(offset), bytes.size(), bytes);
+    return Status();
+  }
+  std::uint64_t size() const override { return out_.size(); }
+  StatusOr<CompressedModel> open_model() override { return CompressedModel::from_bytes(out_); }
+  Status commit() override { return Status(); }
+  std::string take() override { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+class FileSink final : public Sink {
+ public:
+  Status open(const std::filesystem::path& path) { return file_.open(path); }
+  Status append(std::string_view bytes) override {
+    size_ += bytes.size();
+    return file_.write(bytes);
+  }
+  Status write_at(std::uint64_t offset, std::string_view bytes) override { return file_.write_at(offset, bytes); }
+  std::uint64_t size() const override { return size_; }
+  StatusOr<CompressedModel> open_model() override {
+    SSPC_RETURN_IF_ERROR(file_.flush());
+    return CompressedModel::open(file_.temporary_path());
+  }
+  Status commit() override { return file_.commit(); }
+
+ private:
+  AtomicFileWriter file_;
+  std::uint64_t size_ = 0;
+};
+
+std::string encode_seek_entry(const BlockEntry& e, bool patch_block) {
+  std::string out;
+  put_u64(out, e.offset);
+  put_u32(out, e.stored_size);
+  put_u32(out, e.raw_size);
+  put_u32(out, e.crc32);
+  put_u32(out, e.first);
+  put_u32(out, e.count);
+  put_u32(out, patch_block ? 0 : e.point_count);
+  if (patch_block) {
+    put_vec3(out, e.box.min());
+    put_vec3(out, e.box.max());
+  }
+  return out;
+}
+
+std::uint32_t crc32_update(std::uint32_t crc, std::string_view bytes) {
+  return crc32_continue(crc, std::as_bytes(std::span<const char>(bytes.data(), bytes.size())));
+}
+
+// One section as it is appended: its place, size and running CRC.
+struct SectionWriter {
+  std::uint64_t offset = 0;
+  std::uint64_t size = 0;
+  std::uint32_t crc = 0;
+  Status append(Sink& sink, std::string_view bytes) {
+    crc = crc32_update(crc, bytes);
+    size += bytes.size();
+    return sink.append(bytes);
+  }
+};
+
+}  // namespace
+
+struct ContainerStreamWriter::Impl {
+  QuantOptions options;
+  ContainerHeader h;
+  ModelMetadata metadata;
+  std::unique_ptr<Sink> sink;
+  ContainerStats stats;
+  SectionWriter codebook_section;
+  std::string codebook_seek;  // section 2, built as blocks are written
+  std::vector<Codeword> pending;  // code words not yet in a block
+  std::uint64_t codewords = 0;    // added so far
+  std::vector<PatchInstance> patches;
+  std::vector<std::size_t> tile_first_patch{0};
+  bool finished = false;
+
+  Status write_codebook_blocks(bool last);
+  StatusOr<std::string> attribute_part(CompressedModel& geometry, const TileSource& source);
+};
+
+ContainerStreamWriter::ContainerStreamWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ContainerStreamWriter::ContainerStreamWriter(ContainerStreamWriter&&) noexcept = default;
+ContainerStreamWriter& ContainerStreamWriter::operator=(ContainerStreamWriter&&) noexcept = default;
+ContainerStreamWriter::~ContainerStreamWriter() = default;
+
+namespace {
+
+// The header's model-wide fields from `model` (its code book and patches are not looked at) and
+// the options, as every tile shares them.
+ContainerHeader shared_header(const EncodedModel& model, const QuantOptions& options) {
+  ContainerHeader h;
+  h.version = static_cast<std::uint16_t>(options.format_version);
+  const bool duplicates_flag = options.keep_duplicates && h.version >= 3;
+  h.flags = static_cast<std::uint16_t>((model.has_normals ? kFlagNormals : 0) |
+                                       (model.has_colours ? kFlagColours : 0) |
+                                       (model.metadata.present() ? kFlagMetadata : 0) |
+                                       (duplicates_flag ? kFlagDuplicates : 0) |
+                                       (options.attributes.channels != 0 ? kFlagAttributes : 0));
+  h.patch_radius = model.patch_radius;
+  h.coverage_radius = model.coverage_radius;
+  h.spacing = model.spacing;
+  h.source_points = model.source_points;
+  if (!model.bounds.isEmpty()) {
+    h.bounds_min = model.bounds.min();
+    h.bounds_max = model.bounds.max();
+  }
+  h.translation_step = options.translation_step > 0 ? options.translation_step
+                       : model.spacing > 0          ? model.spacing / 64.0f
+                                                    : model.patch_radius / 256.0f;
+  h.position_bits = options.position_bits;
+  if (options.position_step > 0) {
+    h.position_bits = position_bits_for_step(model.patch_radius, options.position_step);
+    h.patch_radius = std::max(model.patch_radius,
+                              options.position_step * static_cast<float>(1u << (h.position_bits - 1)));
+  }
+  h.normal_bits = options.normal_bits;
+  h.rotation_bits = options.rotation_bits;
+  h.codewords_per_block = options.codewords_per_block;
+  h.patches_per_block = options.patches_per_block;
+  return h;
+}
+
+}  // namespace
+
+StatusOr<ContainerStreamWriter> ContainerStreamWriter::open(const EncodedModel& model, const QuantOptions& options,
+                                                            const std::filesystem::path* path) {
+  EncodedModel shared;  // the model-wide fields alone
+  shared.patch_radius = model.patch_radius;
+  shared.coverage_radius = model.coverage_radius;
+  shared.spacing = model.spacing;
+  shared.bounds = model.bounds;
+  shared.has_colours = model.has_colours;
+  SSPC_RETURN_IF_ERROR(validate(shared, options));
+  auto impl = std::make_unique<Impl>();
+  impl->options = options;
+  impl->h = shared_header(model, options);
+  impl->metadata = model.metadata;
+  if (path != nullptr) {
+    auto file = std::make_unique<FileSink>();
+    SSPC_RETURN_IF_ERROR(file->open(*path));
+    impl->sink = std::move(file);
+  } else {
+    impl->sink = std::make_unique<StringSink>();
+  }
+  // The header is written last, when its counts, radius and section table are known.
+  SSPC_RETURN_IF_ERROR(impl->sink->append(std::string(kHeaderSize, '\0')));
+  impl->codebook_section.offset = kHeaderSize;
+  return ContainerStreamWriter(std::move(impl));
+}
+
+StatusOr<ContainerStreamWriter> ContainerStreamWriter::to_file(const EncodedModel& model, const QuantOptions& options,
+                                                               const std::filesystem::path& path) {
+  return open(model, options, &path);
+}
+
+StatusOr<ContainerStreamWriter> ContainerStreamWriter::to_memory(const EncodedModel& model,
+                                                                 const QuantOptions& options) {
+  return open(model, options, nullptr);
+}
+
+Status ContainerStreamWriter::add_tile(EncodedModel tile) {
+  Impl& m = *impl_;
+  if (m.finished) return internal_error("ContainerStreamWriter::add_tile after finish");
+  const ContainerHeader& h = m.h;
+  tile.patch_radius = h.patch_radius;
+  tile.coverage_radius = h.coverage_radius;
+  tile.spacing = h.spacing;
+  tile.has_normals = h.has_normals();
+  tile.has_colours = h.has_colours();
+  tile.bounds = Box3f(h.bounds_min, h.bounds_max);
+  SSPC_RETURN_IF_ERROR(validate(tile, m.options));
+  if (m.codewords + tile.codebook.size() > std::numeric_limits<std::uint32_t>::max() ||
+      m.patches.size() + tile.patches.size() > std::numeric_limits<std::uint32_t>::max()) {
+    return invalid_argument("more than 2^32 − 1 code words or patches");
+  }
+  // The code words moved into the frames a reader decodes, merged and trimmed. A tile's code
+  // words are used by its own patches only, so the trim sees those alone; a patch of another
+  // tile can only claim points away from this tile's, so the trim keeps a few points near the
+  // border that a whole-model trim would drop, and the decode is the same (FORMAT.md, "Decoding:
+  // regions": a trim with fewer neighbours keeps a superset).
+  express_in_decoded_frames(tile, h);
+  if (!m.options.keep_duplicates) merge_duplicate_cells(tile, h);
+  if (m.options.trim_unclaimed) {
+    TrimStats trim;
+    tile = trim_unclaimed_points(tile, h, &trim);
+    m.stats.untrimmed_codeword_points += trim.points_before;
+  }
+  const auto offset = static_cast<std::uint32_t>(m.codewords);
+  for (PatchInstance& p : tile.patches) {
+    p.codeword += offset;
+    m.patches.push_back(p);
+  }
+  m.tile_first_patch.push_back(m.patches.size());
+  m.codewords += tile.codebook.size();
+  for (Codeword& w : tile.codebook) m.pending.push_back(std::move(w));
+  return m.write_codebook_blocks(false);
+}
+
+// Writes the pending code words' whole blocks (and, when `last`, the partial one), each encoded,
+// decoded again for the radius a reader computes, and compressed, in parallel.
+Status ContainerStreamWriter::Impl::write_codebook_blocks(bool last) {
+  const std::size_t per = h.codewords_per_block;
+  const std::size_t blocks = last ? static_cast<std::size_t>(block_count(pending.size(), h.codewords_per_block))
+                                  : pending.size() / per;
+  if (blocks == 0) return Status();
+  const std::uint64_t first_index = codewords - pending.size();
+  std::vector<BuiltBlock> built(blocks);
+  parallel_for(0, blocks, 1, [&](std::size_t b) {
+    BuiltBlock& block = built[b];
+    const std::size_t first = b * per;
+    const std::size_t count = std::min(per, pending.size() - first);
+    const std::span<const Codeword> words(pending.data() + first, count);
+    const std::string raw = encode_codeword_block(words, h);
+    block.entry.first = static_cast<std::uint32_t>(first_index + first);
+    block.entry.count = static_cast<std::uint32_t>(count);
+    std::size_t points = 0;
+    for (const Codeword& w : words) points += w.points.size();
+    if (points > std::numeric_limits<std::uint32_t>::max()) {
+      block.status = invalid_argument("a code-book block holds more than 2^32 − 1 points");
+      return;
+    }
+    block.entry.point_count = static_cast<std::uint32_t>(points);
+    DecodedCodewords decoded;
+    block.status = decode_codeword_block(as_bytes(raw), block.entry, h, decoded);
+    if (!block.status.ok()) return;
+    for (float r : decoded.radius) block.radius = std::max(block.radius, r);
+    block.status = compress_block(raw, options.zstd_level, block);
   });
+  for (BuiltBlock& b : built) {
+    SSPC_RETURN_IF_ERROR(b.status);
+    h.codeword_radius = std::max(h.codeword_radius, b.radius);
+    h.codeword_point_count += b.entry.point_count;
+    stats.codebook_raw_bytes += b.entry.raw_size;
+    b.entry.offset = codebook_section.size;
+    codebook_seek += encode_seek_entry(b.entry, false);
+    SSPC_RETURN_IF_ERROR(codebook_section.append(*sink, b.stored));
+    ++stats.codebook_blocks;
+  }
+  pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(std::min(pending.size(), blocks * per)));
+  return Status();
+}
 
+// The attributes part (FORMAT.md, "Attributes"): the geometry decoded tile by tile as a reader
+// decodes it, each decoded point given the values of its nearest point of the tile's source, and
+// coded patch by patch; blocks are coded (in parallel) as soon as every patch of theirs is.
+StatusOr<std::string> ContainerStreamWriter::Impl::attribute_part(CompressedModel& geometry,
+                                                                  const TileSource& source) {
+  const AttributeParams& params = options.attributes;
+  const std::size_t per = h.patches_per_block;
   const auto blocks = static_cast<std::size_t>(block_count(h.patch_count, h.patches_per_block));
   std::vector<std::string> block_bytes(blocks);
   std::vector<std::array<std::uint64_t, kChannelCount>> block_channel_bytes(blocks);
-  parallel_for(0, blocks, 1, [&](std::size_t b) {
-    const std::size_t first = b * h.patches_per_block;
-    const std::size_t last = std::min<std::size_t>(first + h.patches_per_block, h.patch_count);
-    std::string sizes, streams;
-    PointCloud values;
-    AttributeReferences refs;
-    for (std::size_t k = first; k < last; ++k) {
-      values = PointCloud();
-      values.positions.assign(decoded.positions.begin() + static_cast<std::ptrdiff_t>(begin[k]),
-                              decoded.positions.begin() + static_cast<std::ptrdiff_t>(begin[k + 1]));
-      for (std::size_t i = begin[k]; i < begin[k + 1]; ++i) {
-        const std::uint32_t s = nearest[i];
-        if (params.channels & kChannelColour) values.colours.push_back(source.colours[s]);
-        if (params.channels & kChannelIntensity) values.las.intensity.push_back(source.las.intensity[s]);
-        if (params.channels & kChannelClassification) {
-          values.las.classification.push_back(source.las.classification[s]);
-        }
-        if (params.channels & kChannelReturns) {
-          values.las.return_number.push_back(source.las.return_number[s]);
-          values.las.number_of_returns.push_back(source.las.number_of_returns[s]);
-        }
+  std::vector<PointCloud> values(h.patch_count);  // each patch's points and values, until coded
+  std::size_t coded_blocks = 0;
+  const float reach = h.codeword_radius + h.translation_step;
+  const std::size_t tiles = tile_first_patch.size() - 1;
+  for (std::size_t t = 0; t < tiles; ++t) {
+    const std::size_t first = tile_first_patch[t], last = tile_first_patch[t + 1];
+    if (first < last) {
+      std::shared_ptr<const PointCloud> src;
+      SSPC_RETURN_IF_ERROR(source(t, src));
+      if (src == nullptr || (channels_present(*src) & params.channels) != params.channels) {
+        return invalid_argument("attributes asked for that the source does not have");
       }
-      refs.find(values.positions);
-      for (std::size_t bit = 0; bit < kChannelCount; ++bit) {
-        const auto channel = static_cast<std::uint8_t>(1u << bit);
-        if ((params.channels & channel) == 0) continue;
-        const std::string stream = encode_attribute_stream(channel, params, refs, values);
-        append_varint(sizes, stream.size());
-        streams += stream;
-        block_channel_bytes[b][bit] += stream.size();
+      Box3f box;
+      for (std::size_t k = first; k < last; ++k) box.extend(patches[k].region_centre());
+      box = Box3f(box.min() - Vec3f::Constant(reach), box.max() + Vec3f::Constant(reach));
+      std::vector<std::uint32_t> patch_of;
+      DecodeOptions decode;
+      decode.patch_of = &patch_of;
+      SSPC_ASSIGN_OR_RETURN(PointCloud decoded, geometry.decode_box(box, decode));
+      const KdTree3 tree(src->positions);
+      std::vector<std::uint32_t> nearest(decoded.size(), std::numeric_limits<std::uint32_t>::max());
+      parallel_for(0, decoded.size(), 4096, [&](std::size_t i) {
+        if (patch_of[i] < first || patch_of[i] >= last) return;
+        float d2 = 0;
+        nearest[i] = static_cast<std::uint32_t>(tree.nearest(decoded.positions[i], &d2));
+      });
+      for (std::size_t i = 0; i < decoded.size(); ++i) {
+        const std::uint32_t s = nearest[i];
+        if (s == std::numeric_limits<std::uint32_t>::max()) continue;
+        PointCloud& v = values[patch_of[i]];
+        v.positions.push_back(decoded.positions[i]);
+        if (params.channels & kChannelColour) v.colours.push_back(src->colours[s]);
+        if (params.channels & kChannelIntensity) v.las.intensity.push_back(src->las.intensity[s]);
+        if (params.channels & kChannelClassification) v.las.classification.push_back(src->las.classification[s]);
+        if (params.channels & kChannelReturns) {
+          v.las.return_number.push_back(src->las.return_number[s]);
+          v.las.number_of_returns.push_back(src->las.number_of_returns[s]);
+        }
       }
     }
-    block_bytes[b] = sizes + streams;
-  });
+    const std::size_t ready = t + 1 == tiles ? blocks : last / per;
+    parallel_for(coded_blocks, ready, 1, [&](std::size_t b) {
+      const std::size_t begin = b * per;
+      const std::size_t end = std::min<std::size_t>(begin + per, h.patch_count);
+      std::string sizes, streams;
+      AttributeReferences refs;
+      for (std::size_t k = begin; k < end; ++k) {
+        refs.find(values[k].positions);
+        for (std::size_t bit = 0; bit < kChannelCount; ++bit) {
+          const auto channel = static_cast<std::uint8_t>(1u << bit);
+          if ((params.channels & channel) == 0) continue;
+          const std::string stream = encode_attribute_stream(channel, params, refs, values[k]);
+          append_varint(sizes, stream.size());
+          streams += stream;
+          block_channel_bytes[b][bit] += stream.size();
+        }
+        values[k] = PointCloud();
+      }
+      block_bytes[b] = sizes + streams;
+    });
+    coded_blocks = std::max(coded_blocks, ready);
+  }
 
   std::string table;
   put_u8(table, params.channels);
@@ -301,96 +576,21 @@ StatusOr<std::string> encode_attribute_part(std::string geometry, const Containe
   put_u32(out, crc32_of(as_bytes(table)));
   out += table;
   for (const std::string& block : block_bytes) out += block;
-  if (stats != nullptr) {
-    stats->attribute_bytes = out.size();
-    for (const auto& c : block_channel_bytes) {
-      for (std::size_t bit = 0; bit < kChannelCount; ++bit) stats->channel_bytes[bit] += c[bit];
-    }
+  stats.attribute_bytes = out.size();
+  for (const auto& c : block_channel_bytes) {
+    for (std::size_t bit = 0; bit < kChannelCount; ++bit) stats.channel_bytes[bit] += c[bit];
   }
   return out;
 }
 
-}  // namespace
-
-StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOptions& options,
-                                       ContainerStats* stats) {
-  SSPC_RETURN_IF_ERROR(validate(source, options));
-
-  ContainerHeader h;
-  h.version = static_cast<std::uint16_t>(options.format_version);
-  const bool metadata = source.metadata.present();
-  const bool duplicates_flag = options.keep_duplicates && h.version >= 3;
-  h.flags = static_cast<std::uint16_t>((source.has_normals ? kFlagNormals : 0) |
-                                       (source.has_colours ? kFlagColours : 0) |
-                                       (metadata ? kFlagMetadata : 0) |
-                                       (duplicates_flag ? kFlagDuplicates : 0) |
-                                       (options.attributes.channels != 0 ? kFlagAttributes : 0));
-  h.patch_radius = source.patch_radius;
-  h.coverage_radius = source.coverage_radius;
-  h.spacing = source.spacing;
-  h.source_points = source.source_points;
-  if (!source.bounds.isEmpty()) {
-    h.bounds_min = source.bounds.min();
-    h.bounds_max = source.bounds.max();
-  }
-  h.translation_step = options.translation_step > 0 ? options.translation_step
-                       : source.spacing > 0          ? source.spacing / 64.0f
-                                                    : source.patch_radius / 256.0f;
-  h.position_bits = options.position_bits;
-  if (options.position_step > 0) {
-    h.position_bits = position_bits_for_step(source.patch_radius, options.position_step);
-    h.patch_radius = std::max(source.patch_radius,
-                              options.position_step * static_cast<float>(1u << (h.position_bits - 1)));
-  }
-  h.normal_bits = options.normal_bits;
-  h.rotation_bits = options.rotation_bits;
-  h.codeword_count = static_cast<std::uint32_t>(source.codebook.size());
-  h.patch_count = static_cast<std::uint32_t>(source.patches.size());
-  h.codewords_per_block = options.codewords_per_block;
-  h.patches_per_block = options.patches_per_block;
-  // One working copy of the code book, moved into the decoded frames and merged in place.
-  EncodedModel working = source;
-  express_in_decoded_frames(working, h);
-  if (!options.keep_duplicates) merge_duplicate_cells(working, h);
-  EncodedModel trimmed;
-  if (options.trim_unclaimed) {
-    TrimStats trim;
-    trimmed = trim_unclaimed_points(working, h, &trim);
-    if (stats != nullptr) stats->untrimmed_codeword_points = trim.points_before;
-  }
-  const EncodedModel& model = options.trim_unclaimed ? trimmed : working;
-  for (const Codeword& w : model.codebook) h.codeword_point_count += w.points.size();
-
-  // Code-book blocks.
-  const auto cw_blocks =
-      static_cast<std::size_t>(block_count(h.codeword_count, h.codewords_per_block));
-  std::vector<BuiltBlock> codebook(cw_blocks);
-  parallel_for(0, cw_blocks, 1, [&](std::size_t b) {
-    BuiltBlock& block = codebook[b];
-    const std::size_t first = b * h.codewords_per_block;
-    const std::size_t count =
-        std::min<std::size_t>(h.codewords_per_block, h.codeword_count - first);
-    const std::span<const Codeword> words(model.codebook.data() + first, count);
-    const std::string raw = encode_codeword_block(words, h);
-    block.entry.first = static_cast<std::uint32_t>(first);
-    block.entry.count = static_cast<std::uint32_t>(count);
-    std::size_t points = 0;
-    for (const Codeword& w : words) points += w.points.size();
-    if (points > std::numeric_limits<std::uint32_t>::max()) {
-      block.status = invalid_argument("a code-book block holds more than 2^32 − 1 points");
-      return;
-    }
-    block.entry.point_count = static_cast<std::uint32_t>(points);
-    DecodedCodewords decoded;
-    block.status = decode_codeword_block(as_bytes(raw), block.entry, h, decoded);
-    if (!block.status.ok()) return;
-    for (float r : decoded.radius) block.radius = std::max(block.radius, r);
-    block.status = compress_block(raw, options.zstd_level, block);
-  });
-  for (const BuiltBlock& b : codebook) {
-    SSPC_RETURN_IF_ERROR(b.status);
-    h.codeword_radius = std::max(h.codeword_radius, b.radius);
-  }
+StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribute_source) {
+  Impl& m = *impl_;
+  if (m.finished) return internal_error("ContainerStreamWriter::finish twice");
+  m.finished = true;
+  ContainerHeader& h = m.h;
+  SSPC_RETURN_IF_ERROR(m.write_codebook_blocks(true));
+  h.codeword_count = static_cast<std::uint32_t>(m.codewords);
+  h.patch_count = static_cast<std::uint32_t>(m.patches.size());
 
   // Patch blocks.
   const auto p_blocks = static_cast<std::size_t>(block_count(h.patch_count, h.patches_per_block));
@@ -399,7 +599,7 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     BuiltBlock& block = patches[b];
     const std::size_t first = b * h.patches_per_block;
     const std::size_t count = std::min<std::size_t>(h.patches_per_block, h.patch_count - first);
-    auto raw = encode_patch_block({model.patches.data() + first, count}, h);
+    auto raw = encode_patch_block({m.patches.data() + first, count}, h);
     if (!raw.ok()) {
       block.status = raw.status();
       return;
@@ -413,85 +613,103 @@ StatusOr<std::string> encode_container(const EncodedModel& source, const QuantOp
     for (const Vec3f& c : decoded.centre) centres.extend(c);
     const Vec3f r = Vec3f::Constant(h.patch_radius);
     block.entry.box = Box3f(centres.min() - r, centres.max() + r);
-    block.status = compress_block(*raw, options.zstd_level, block);
+    block.status = compress_block(*raw, m.options.zstd_level, block);
   });
   for (const BuiltBlock& b : patches) SSPC_RETURN_IF_ERROR(b.status);
 
-  // Sections.
-  std::string section[kSectionCount];
-  std::uint64_t raw_totals[2] = {0, 0};
-  // One seek-table writer for both kinds (docs/FORMAT.md, "Blocks and seek tables"): a code-book
-  // entry carries its point count, a patch entry 0 there and its blocks' bounding box.
-  const auto append_blocks = [](const std::vector<BuiltBlock>& blocks, bool patch_blocks, std::string& data,
-                                std::string& table, std::uint64_t& raw_total) {
-    for (const BuiltBlock& b : blocks) {
-      BlockEntry e = b.entry;
-      e.offset = data.size();
-      data += b.stored;
-      raw_total += e.raw_size;
-      put_u64(table, e.offset);
-      put_u32(table, e.stored_size);
-      put_u32(table, e.raw_size);
-      put_u32(table, e.crc32);
-      put_u32(table, e.first);
-      put_u32(table, e.count);
-      put_u32(table, patch_blocks ? 0 : e.point_count);
-      if (patch_blocks) {
-        put_vec3(table, e.box.min());
-        put_vec3(table, e.box.max());
-      }
-    }
-  };
-  append_blocks(codebook, false, section[0], section[1], raw_totals[0]);
-  append_blocks(patches, true, section[2], section[3], raw_totals[1]);
-  std::uint64_t offset = kHeaderSize;
+  // Sections 2–4 follow the code-book blocks.
+  SectionWriter sections[kSectionCount];
+  sections[0] = m.codebook_section;
+  sections[1].offset = sections[0].offset + sections[0].size;
+  SSPC_RETURN_IF_ERROR(sections[1].append(*m.sink, m.codebook_seek));
+  sections[2].offset = sections[1].offset + sections[1].size;
+  std::string patch_seek;
+  for (BuiltBlock& b : patches) {
+    b.entry.offset = sections[2].size;
+    m.stats.patch_raw_bytes += b.entry.raw_size;
+    patch_seek += encode_seek_entry(b.entry, true);
+    SSPC_RETURN_IF_ERROR(sections[2].append(*m.sink, b.stored));
+  }
+  patches.clear();
+  sections[3].offset = sections[2].offset + sections[2].size;
+  SSPC_RETURN_IF_ERROR(sections[3].append(*m.sink, patch_seek));
   for (std::size_t i = 0; i < kSectionCount; ++i) {
     SectionEntry& s = h.sections[i];
     s.kind = static_cast<SectionKind>(i + 1);
-    s.offset = offset;
-    s.size = section[i].size();
-    s.crc32 = crc32_of(as_bytes(section[i]));
-    offset += s.size;
+    s.offset = sections[i].offset;
+    s.size = sections[i].size;
+    s.crc32 = sections[i].crc;
   }
-  std::string attribute_part;
-  if (options.attributes.channels != 0) {
-    // The geometry alone, as a file a reader can decode: the attributes are coded on what it
-    // decodes.
+
+  if (m.options.attributes.channels != 0) {
+    // The geometry alone is a file a reader decodes: the attributes are coded on what it decodes.
     ContainerHeader geometry = h;
     geometry.flags = static_cast<std::uint16_t>(h.flags & ~(kFlagMetadata | kFlagAttributes));
-    std::string bytes = encode_header(geometry);
-    for (const std::string& s : section) bytes += s;
-    SSPC_ASSIGN_OR_RETURN(attribute_part, encode_attribute_part(std::move(bytes), h, options, stats));
+    SSPC_RETURN_IF_ERROR(m.sink->write_at(0, encode_header(geometry)));
+    if (!attribute_source) return invalid_argument("attributes asked for without a source");
+    std::string part;
+    {
+      SSPC_ASSIGN_OR_RETURN(CompressedModel model, m.sink->open_model());
+      SSPC_ASSIGN_OR_RETURN(part, m.attribute_part(model, attribute_source));
+    }
+    SSPC_RETURN_IF_ERROR(m.sink->append(part));
   }
-  std::string out = encode_header(h);
-  const std::string metadata_part = metadata ? encode_metadata(source.metadata) : std::string();
-  out.reserve(offset + attribute_part.size() + metadata_part.size());
-  for (const std::string& s : section) out += s;
-  out += attribute_part;
-  out += metadata_part;
+  if (h.has_metadata()) SSPC_RETURN_IF_ERROR(m.sink->append(encode_metadata(m.metadata)));
+  SSPC_RETURN_IF_ERROR(m.sink->write_at(0, encode_header(h)));
+  ContainerStats& stats = m.stats;
+  stats.file_bytes = m.sink->size();
+  stats.codeword_points = h.codeword_point_count;
+  stats.header_bytes = kHeaderSize;
+  stats.codebook_bytes = sections[0].size;
+  stats.codebook_seek_bytes = sections[1].size;
+  stats.patch_bytes = sections[2].size;
+  stats.patch_seek_bytes = sections[3].size;
+  stats.patch_blocks = static_cast<std::uint32_t>(p_blocks);
+  SSPC_RETURN_IF_ERROR(m.sink->commit());
+  return stats;
+}
 
-  if (stats != nullptr) {
-    stats->file_bytes = out.size();
-    stats->codeword_points = h.codeword_point_count;
-    stats->header_bytes = kHeaderSize;
-    stats->codebook_bytes = section[0].size();
-    stats->codebook_seek_bytes = section[1].size();
-    stats->patch_bytes = section[2].size();
-    stats->patch_seek_bytes = section[3].size();
-    stats->codebook_raw_bytes = raw_totals[0];
-    stats->patch_raw_bytes = raw_totals[1];
-    stats->codebook_blocks = static_cast<std::uint32_t>(cw_blocks);
-    stats->patch_blocks = static_cast<std::uint32_t>(p_blocks);
+std::string ContainerStreamWriter::take_bytes() { return impl_->sink->take(); }
+
+namespace {
+
+// encode_container's and write_container's checks beyond validate(): the one source of
+// attributes is given and has them.
+Status validate_whole(const EncodedModel& model, const QuantOptions& o) {
+  SSPC_RETURN_IF_ERROR(validate(model, o));
+  if (o.attributes.channels != 0 &&
+      (o.attribute_source == nullptr || (channels_present(*o.attribute_source) & o.attributes.channels) != o.attributes.channels)) {
+    return invalid_argument("attributes asked for that the source does not have");
   }
-  return out;
+  return Status();
+}
+
+}  // namespace
+
+StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOptions& options, ContainerStats* stats) {
+  SSPC_RETURN_IF_ERROR(validate_whole(model, options));
+  SSPC_ASSIGN_OR_RETURN(ContainerStreamWriter writer, ContainerStreamWriter::to_memory(model, options));
+  SSPC_RETURN_IF_ERROR(writer.add_tile(model));
+  const std::shared_ptr<const PointCloud> source(options.attribute_source, [](const PointCloud*) {});
+  SSPC_ASSIGN_OR_RETURN(const ContainerStats written,
+                        writer.finish([&](std::size_t, std::shared_ptr<const PointCloud>& out) {
+                          out = source;
+                          return Status();
+                        }));
+  if (stats != nullptr) *stats = written;
+  return writer.take_bytes();
 }
 
 StatusOr<ContainerStats> write_container(const EncodedModel& model, const QuantOptions& options,
                                          const std::filesystem::path& path) {
-  ContainerStats stats;
-  SSPC_ASSIGN_OR_RETURN(std::string bytes, encode_container(model, options, &stats));
-  SSPC_RETURN_IF_ERROR(write_file_atomically(path, as_bytes(bytes)));
-  return stats;
+  SSPC_RETURN_IF_ERROR(validate_whole(model, options));
+  SSPC_ASSIGN_OR_RETURN(ContainerStreamWriter writer, ContainerStreamWriter::to_file(model, options, path));
+  SSPC_RETURN_IF_ERROR(writer.add_tile(model));
+  const std::shared_ptr<const PointCloud> source(options.attribute_source, [](const PointCloud*) {});
+  return writer.finish([&](std::size_t, std::shared_ptr<const PointCloud>& out) {
+    out = source;
+    return Status();
+  });
 }
 
 }  // namespace sspc::codec

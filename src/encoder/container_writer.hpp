@@ -9,6 +9,8 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <string>
 
 #include "format/attribute_coder.hpp"
@@ -67,6 +69,45 @@ struct ContainerStats {
   // Its streams by channel bit (colour, intensity, classification, returns), without their
   // sizes and the seek table.
   std::array<std::uint64_t, kChannelCount> channel_bytes{};
+};
+
+// A container written as its model comes, tile by tile (a tiled encode, encoder/tiling.hpp): the
+// code-book blocks of each tile go out as it is added, so the writer holds one tile's code book,
+// the patches (about 60 bytes each) and the seek tables, never the whole model. Patch blocks,
+// attributes, metadata and the header follow at finish(). One tile holding the whole model
+// writes exactly what encode_container writes (it is how encode_container writes).
+class ContainerStreamWriter {
+ public:
+  // Tile t's source of attributes (FORMAT.md, "Attributes"): points with the channels
+  // options.attributes names, holding the nearest source point of every point the tile's patches
+  // decode to (its own points and a margin). Asked once per tile that has patches, in order.
+  using TileSource = std::function<Status(std::size_t tile, std::shared_ptr<const PointCloud>& out)>;
+
+  // `model` gives what every tile shares: patch_radius, coverage_radius, spacing, source_points,
+  // bounds, has_normals, has_colours, metadata (its code book and patches are not read).
+  // to_file writes a temporary file beside `path`, renamed over it by a successful finish().
+  static StatusOr<ContainerStreamWriter> to_file(const EncodedModel& model, const QuantOptions& options,
+                                                 const std::filesystem::path& path);
+  static StatusOr<ContainerStreamWriter> to_memory(const EncodedModel& model, const QuantOptions& options);
+
+  ContainerStreamWriter(ContainerStreamWriter&&) noexcept;
+  ContainerStreamWriter& operator=(ContainerStreamWriter&&) noexcept;
+  ~ContainerStreamWriter();
+
+  // A tile's code book and the patches that use it, code-word indices local to the tile (the
+  // model-wide fields of `tile` are ignored). Tiles are numbered in the order they are added.
+  Status add_tile(EncodedModel tile);
+  // Writes the rest; `attributes` is needed when options.attributes names channels.
+  StatusOr<ContainerStats> finish(const TileSource& attributes = {});
+  // to_memory: the container's bytes, after finish().
+  std::string take_bytes();
+
+ private:
+  struct Impl;
+  static StatusOr<ContainerStreamWriter> open(const EncodedModel& model, const QuantOptions& options,
+                                              const std::filesystem::path* path);
+  explicit ContainerStreamWriter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
 };
 
 // The container's bytes. Fails with kInvalidArgument for a model that breaks its own invariants

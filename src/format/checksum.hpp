@@ -8,5 +8,7 @@
 namespace sspc::codec {
 
 std::uint32_t crc32_of(std::span<const std::byte> bytes);
+// The CRC32 of the bytes so far (`crc`, 0 for none) followed by `bytes`: crc32_of in pieces.
+std::uint32_t crc32_continue(std::uint32_t crc, std::span<const std::byte> bytes);
 
 }  // namespace sspc::codec
