@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "sspc/io.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
@@ -53,6 +54,10 @@ struct EncodeOptions {
   // each built with a margin of its neighbours' points and joined into one model
   // (src/encoder/tiling.hpp). Normals are estimated per tile.
   std::uint64_t tile_points = 0;
+  // encode_file: bytes the encode may hold (0: no limit). The input is then read in passes and
+  // never held whole, and encoded in tiles of the size the limit allows (tile_points, when set,
+  // instead); the tiles wait in files beside the output (docs/ARCHITECTURE.md, "Scale").
+  std::uint64_t memory_limit = 0;
   NormalOptions normals;            // how the input gets its normals (default: auto)
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
@@ -97,5 +102,11 @@ struct EncodeStats {
 // than 16 points; I/O errors from writing.
 StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& output,
                              const EncodeOptions& options = {});
+
+// Encodes the file `input` (read as `read` says). With options.memory_limit the cloud is never
+// held whole (TiledEncoder::plan_file: three passes over the input, one file per tile in a
+// hidden folder beside `output`, removed at the end); otherwise read_point_cloud, then encode().
+StatusOr<EncodeStats> encode_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                                  const EncodeOptions& options = {}, const ReadOptions& read = {});
 
 }  // namespace sspc

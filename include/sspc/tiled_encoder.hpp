@@ -1,11 +1,16 @@
 // A tiled encode split into jobs that can run anywhere (Dask workers: python/sspc/distributed.py):
 // plan on one machine, run each tile's job (its points, a margin of its neighbours' and the
-// parameters every tile shares) with run_tile_job, then join the results and write the model.
+// parameters every tile shares) with run_tile_job, then add the results and finish the model.
 // The file is byte for byte that of encode() with the same options, whoever ran the jobs and in
 // whatever order they finished (src/encoder/tiling.hpp states the tiling rule).
+//
+// Memory: plan() keeps the cloud; plan_file() reads the input in passes and keeps it in one file
+// per tile beside the output, so the encoder holds one tile's job and result at a time, the
+// patches (about 60 bytes each) and the plan's grid (about 40 MB), whatever the input's size.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -13,6 +18,7 @@
 #include <string_view>
 
 #include "sspc/encoder.hpp"
+#include "sspc/io.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/status.hpp"
 
@@ -23,6 +29,12 @@ class TiledEncoder {
   // Checks the options and the cloud as encode() does (options.tile_points must be > 0), cuts
   // the cloud into tiles and measures the spacing and patch radius they share. Keeps the cloud.
   static StatusOr<TiledEncoder> plan(PointCloud cloud, const EncodeOptions& options);
+  // The same from a file read in chunks (three passes: bounds, the tiles' counts, the tiles'
+  // files, written into a hidden folder in `work_dir` and removed with the encoder). The tile
+  // size is options.tile_points, else the one options.memory_limit allows
+  // (tile_points_for_memory). The same bytes as plan(read_point_cloud(input)).
+  static StatusOr<TiledEncoder> plan_file(const std::filesystem::path& input, const EncodeOptions& options,
+                                          const ReadOptions& read = {}, const std::filesystem::path& work_dir = ".");
 
   TiledEncoder(TiledEncoder&&) noexcept;
   TiledEncoder& operator=(TiledEncoder&&) noexcept;
@@ -30,12 +42,19 @@ class TiledEncoder {
 
   std::size_t tile_count() const;
   int level() const;
+  std::uint64_t points() const;               // the whole cloud's
   std::size_t tile_points(std::size_t t) const;  // the tile's own points (its job carries more)
   // Tile t's job, self-contained bytes for run_tile_job (on this machine or another running the
-  // same sspc).
-  std::string job(std::size_t t) const;
-  // Joins the jobs' results, given in tile order, and writes the model atomically. Fails
-  // (kInvalidArgument) when a result is missing or is not a result of this sspc.
+  // same sspc). Fails only when a tile's file cannot be read back.
+  StatusOr<std::string> job(std::size_t t) const;
+
+  // Writing: begin(), then each tile's result in any order (a result is held until every tile
+  // before it is written), then finish(). A result that is not of this sspc, or of a tile given
+  // twice, is kInvalidArgument; finish() before every tile's result is too.
+  Status begin(const std::filesystem::path& output);
+  Status add(std::size_t t, std::string result);
+  StatusOr<EncodeStats> finish();
+  // All three at once, the results in tile order.
   StatusOr<EncodeStats> write(const std::filesystem::path& output, std::span<const std::string> results);
 
  private:
@@ -44,9 +63,14 @@ class TiledEncoder {
   std::unique_ptr<Impl> impl_;
 };
 
+// The tile size a memory limit allows: what a tile's encode holds per point (its job, margin,
+// normals, search tree, patches and code book, measured on autzen: see tiled_encoder.cpp) into
+// the limit less a fixed part for the plan and the writer.
+std::uint64_t tile_points_for_memory(std::uint64_t memory_limit_bytes);
+
 // Runs one tile's job: normals where its points have none, patch centres over the tile's own
 // points, the code book over the tile and its margin. Returns the tile's model as bytes for
-// TiledEncoder::write. Deterministic: the same job gives the same bytes anywhere.
+// TiledEncoder::add. Deterministic: the same job gives the same bytes anywhere.
 StatusOr<std::string> run_tile_job(std::string_view job);
 
 }  // namespace sspc

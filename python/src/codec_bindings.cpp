@@ -426,7 +426,7 @@ The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
                 "job",
                 [](const TiledEncoder& e, std::size_t t) {
                   if (t >= e.tile_count()) throw py::index_error("tile " + std::to_string(t) + " out of range");
-                  return py::bytes(without_gil([&] { return e.job(t); }));
+                  return py::bytes(value_or_raise(without_gil([&] { return e.job(t); })));
                 },
                 py::arg("t"), "Tile t's job: bytes for sspc.run_tile_job.")
             .def(

@@ -132,14 +132,23 @@ void merge_duplicate_cells(EncodedModel& model, const ContainerHeader& h) {
 }
 
 EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& h,
-                                   TrimStats* stats) {
+                                   TrimStats* stats, std::span<const IndexedPatch> others,
+                                   std::uint32_t first_index) {
   const std::size_t n = model.patches.size();
+  const std::size_t all = n + others.size();
+  auto patch = [&](std::size_t k) -> const PatchInstance& {
+    return k < n ? model.patches[k] : others[k - n].patch;
+  };
+  // Index in the whole model, which ties are broken by.
+  auto index = [&](std::size_t k) {
+    return k < n ? first_index + static_cast<std::uint32_t>(k) : others[k - n].index;
+  };
   // The transforms as a reader decodes them.
   std::vector<Eigen::Matrix3f> rotation(n);
-  std::vector<Vec3f> centre(n);
-  parallel_for(0, n, 1024, [&](std::size_t k) {
-    const RigidTransform& t = model.patches[k].world_from_codeword;
-    rotation[k] = decode_rotation(encode_rotation(t.rotation, h.rotation_bits), h.rotation_bits);
+  std::vector<Vec3f> centre(all);
+  parallel_for(0, all, 1024, [&](std::size_t k) {
+    const RigidTransform& t = patch(k).world_from_codeword;
+    if (k < n) rotation[k] = decode_rotation(encode_rotation(t.rotation, h.rotation_bits), h.rotation_bits);
     std::array<std::int32_t, 3> grid{};
     // Off the grid, the writer refuses the patch block (encode_patch_block) after trimming;
     // until then the centre stays where the encoder put it.
@@ -174,10 +183,10 @@ EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHea
       neighbours.clear();
       for (const Neighbour& nb : near) {
         if (nb.index != k && centre_distance2(centre[nb.index], centre[k]) <= threshold2) {
-          neighbours.push_back({nb.index, centre[nb.index]});
+          neighbours.push_back({index(nb.index), centre[nb.index]});
         }
       }
-      region.reset(k, rotation[k], centre[k], neighbours);
+      region.reset(index(k), rotation[k], centre[k], neighbours);
       for (std::size_t i = 0; i < d.points.size(); ++i) {
         if (!keep[i] && region.claims(d.points[i], d.norm2[i])) keep[i] = true;
       }

@@ -10,6 +10,9 @@
 // overlap mode, which emits every stored point, sees the difference.
 #pragma once
 
+#include <cstdint>
+#include <span>
+
 #include "format/container_format.hpp"
 #include "format/encoded_model.hpp"
 
@@ -37,7 +40,18 @@ void merge_duplicate_cells(EncodedModel& model, const ContainerHeader& header);
 
 // `header` must carry the quantisation fields the writer will use (position_bits,
 // rotation_bits, translation_step, bounds_min). Every translation must fit the grid.
+//
+// A tile of a larger model (ContainerStreamWriter): `model` holds the tile's code words and the
+// patches that use them, numbered from `first_index` in the whole model, and `others` the
+// whole model's other patches that may neighbour them (their index in the whole model and the
+// patch). The claims are then those the whole model's decode makes; leaving a neighbour out
+// only keeps more points (a point claimed against fewer centres is claimed against more).
+struct IndexedPatch {
+  std::uint32_t index = 0;
+  PatchInstance patch;
+};
 EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& header,
-                                   TrimStats* stats = nullptr);
+                                   TrimStats* stats = nullptr, std::span<const IndexedPatch> others = {},
+                                   std::uint32_t first_index = 0);
 
 }  // namespace sspc::codec

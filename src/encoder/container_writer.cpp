@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -299,6 +301,82 @@ struct SectionWriter {
   }
 };
 
+// Code books set aside until every tile's patches are known: one record per tile in a file of a
+// hidden folder beside the output (removed with it), native byte order, read back once.
+class CodebookSpill {
+ public:
+  Status open(const std::filesystem::path& output) {
+    std::filesystem::path dir = output.parent_path();
+    SSPC_RETURN_IF_ERROR(dir_.open(dir.empty() ? std::filesystem::path(".") : dir));
+    path_ = dir_.stage("codebooks");
+    file_ = std::fopen(path_.c_str(), "w+b");
+    if (file_ == nullptr) return io_error(path_.string() + ": cannot create: " + std::strerror(errno));
+    return Status();
+  }
+  ~CodebookSpill() {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+  Status put(const std::vector<Codeword>& codebook) {
+    std::string out;
+    put_u64(out, codebook.size());
+    for (const Codeword& w : codebook) {
+      put_u64(out, w.points.size());
+      put_u8(out, static_cast<std::uint8_t>((w.normals.empty() ? 0 : 1) | (w.colours.empty() ? 0 : 2)));
+      append(out, w.points.data(), w.points.size() * sizeof(Vec3f));
+      append(out, w.normals.data(), w.normals.size() * sizeof(Vec3f));
+      append(out, w.colours.data(), w.colours.size() * sizeof(Rgb8));
+    }
+    records_.emplace_back(end_, out.size());
+    end_ += out.size();
+    if (std::fseek(file_, 0, SEEK_END) != 0 || std::fwrite(out.data(), 1, out.size(), file_) != out.size()) {
+      return io_error(path_.string() + ": write failed: " + std::strerror(errno));
+    }
+    return Status();
+  }
+  StatusOr<std::vector<Codeword>> get(std::size_t t) {
+    const auto [offset, size] = records_.at(t);
+    std::string in(size, '\0');
+    if (std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0 || std::fread(in.data(), 1, size, file_) != size) {
+      return io_error(path_.string() + ": cannot read back what was written");
+    }
+    const char* at = in.data();
+    auto take = [&at](void* to, std::size_t n) {
+      if (n > 0) std::memcpy(to, at, n);
+      at += n;
+    };
+    std::uint64_t count = 0;
+    take(&count, 8);
+    std::vector<Codeword> codebook(count);
+    for (Codeword& w : codebook) {
+      std::uint64_t n = 0;
+      std::uint8_t flags = 0;
+      take(&n, 8);
+      take(&flags, 1);
+      w.points.resize(n);
+      take(w.points.data(), n * sizeof(Vec3f));
+      if (flags & 1) {
+        w.normals.resize(n);
+        take(w.normals.data(), n * sizeof(Vec3f));
+      }
+      if (flags & 2) {
+        w.colours.resize(n);
+        take(w.colours.data(), n * sizeof(Rgb8));
+      }
+    }
+    return codebook;
+  }
+
+ private:
+  static void append(std::string& out, const void* data, std::size_t n) {
+    out.append(static_cast<const char*>(data), n);
+  }
+  StagingDirectory dir_;
+  std::filesystem::path path_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t end_ = 0;
+  std::vector<std::pair<std::uint64_t, std::size_t>> records_;
+};
+
 }  // namespace
 
 struct ContainerStreamWriter::Impl {
@@ -311,10 +389,17 @@ struct ContainerStreamWriter::Impl {
   std::string codebook_seek;  // section 2, built as blocks are written
   std::vector<Codeword> pending;  // code words not yet in a block
   std::uint64_t codewords = 0;    // added so far
-  std::vector<PatchInstance> patches;
+  std::uint64_t blocked = 0;      // written in blocks so far
+  std::vector<PatchInstance> patches;  // expressed in the decoded frames, global code-word indices
   std::vector<std::size_t> tile_first_patch{0};
+  std::vector<std::uint64_t> tile_first_codeword{0};
+  // The tiles' code books (expressed and merged) until finish() trims them: in memory, or in a
+  // file beside the output.
+  std::vector<std::vector<Codeword>> held;
+  std::unique_ptr<CodebookSpill> spill;
   bool finished = false;
 
+  Status write_tile_codebook(std::size_t t, std::vector<Codeword> codebook);
   Status write_codebook_blocks(bool last);
   StatusOr<std::string> attribute_part(CompressedModel& geometry, const TileSource& source);
 };
@@ -364,7 +449,7 @@ ContainerHeader shared_header(const EncodedModel& model, const QuantOptions& opt
 }  // namespace
 
 StatusOr<ContainerStreamWriter> ContainerStreamWriter::open(const EncodedModel& model, const QuantOptions& options,
-                                                            const std::filesystem::path* path) {
+                                                            const std::filesystem::path* path, bool spill) {
   EncodedModel shared;  // the model-wide fields alone
   shared.patch_radius = model.patch_radius;
   shared.coverage_radius = model.coverage_radius;
@@ -380,6 +465,10 @@ StatusOr<ContainerStreamWriter> ContainerStreamWriter::open(const EncodedModel& 
     auto file = std::make_unique<FileSink>();
     SSPC_RETURN_IF_ERROR(file->open(*path));
     impl->sink = std::move(file);
+    if (spill) {
+      impl->spill = std::make_unique<CodebookSpill>();
+      SSPC_RETURN_IF_ERROR(impl->spill->open(*path));
+    }
   } else {
     impl->sink = std::make_unique<StringSink>();
   }
@@ -390,13 +479,13 @@ StatusOr<ContainerStreamWriter> ContainerStreamWriter::open(const EncodedModel& 
 }
 
 StatusOr<ContainerStreamWriter> ContainerStreamWriter::to_file(const EncodedModel& model, const QuantOptions& options,
-                                                               const std::filesystem::path& path) {
-  return open(model, options, &path);
+                                                               const std::filesystem::path& path, bool spill) {
+  return open(model, options, &path, spill);
 }
 
 StatusOr<ContainerStreamWriter> ContainerStreamWriter::to_memory(const EncodedModel& model,
                                                                  const QuantOptions& options) {
-  return open(model, options, nullptr);
+  return open(model, options, nullptr, false);
 }
 
 Status ContainerStreamWriter::add_tile(EncodedModel tile) {
@@ -414,27 +503,57 @@ Status ContainerStreamWriter::add_tile(EncodedModel tile) {
       m.patches.size() + tile.patches.size() > std::numeric_limits<std::uint32_t>::max()) {
     return invalid_argument("more than 2^32 − 1 code words or patches");
   }
-  // The code words moved into the frames a reader decodes, merged and trimmed. A tile's code
-  // words are used by its own patches only, so the trim sees those alone; a patch of another
-  // tile can only claim points away from this tile's, so the trim keeps a few points near the
-  // border that a whole-model trim would drop, and the decode is the same (FORMAT.md, "Decoding:
-  // regions": a trim with fewer neighbours keeps a superset).
+  // The code words moved into the frames a reader decodes and merged; trimmed at finish(), when
+  // the patches of every tile that may neighbour this one's are known.
   express_in_decoded_frames(tile, h);
   if (!m.options.keep_duplicates) merge_duplicate_cells(tile, h);
-  if (m.options.trim_unclaimed) {
-    TrimStats trim;
-    tile = trim_unclaimed_points(tile, h, &trim);
-    m.stats.untrimmed_codeword_points += trim.points_before;
-  }
   const auto offset = static_cast<std::uint32_t>(m.codewords);
-  for (PatchInstance& p : tile.patches) {
+  for (PatchInstance p : tile.patches) {
     p.codeword += offset;
     m.patches.push_back(p);
   }
   m.tile_first_patch.push_back(m.patches.size());
   m.codewords += tile.codebook.size();
-  for (Codeword& w : tile.codebook) m.pending.push_back(std::move(w));
-  return m.write_codebook_blocks(false);
+  m.tile_first_codeword.push_back(m.codewords);
+  if (m.spill) return m.spill->put(tile.codebook);
+  m.held.push_back(std::move(tile.codebook));
+  return Status();
+}
+
+// Tile t's code book trimmed (against its own patches and every other tile's within reach:
+// exactly the whole model's trim) and its whole blocks written.
+Status ContainerStreamWriter::Impl::write_tile_codebook(std::size_t t, std::vector<Codeword> codebook) {
+  if (options.trim_unclaimed) {
+    EncodedModel tile;
+    tile.codebook = std::move(codebook);
+    const std::size_t first = tile_first_patch[t], last = tile_first_patch[t + 1];
+    const auto offset = static_cast<std::uint32_t>(tile_first_codeword[t]);
+    Box3f box;
+    for (std::size_t k = first; k < last; ++k) {
+      PatchInstance p = patches[k];
+      p.codeword -= offset;
+      tile.patches.push_back(p);
+      box.extend(p.region_centre());
+    }
+    // A neighbour of a patch lies within 2ρ ≤ 2·patch_radius (FORMAT.md, "Decoding: regions")
+    // of its decoded centre, which is within a translation step of the stored one.
+    const float reach = 2.01f * h.patch_radius + 2 * h.translation_step;
+    const Box3f grown(box.min() - Vec3f::Constant(reach), box.max() + Vec3f::Constant(reach));
+    std::vector<IndexedPatch> others;
+    if (!box.isEmpty()) {
+      for (std::size_t k = 0; k < patches.size(); ++k) {
+        if ((k < first || k >= last) && grown.contains(patches[k].region_centre())) {
+          others.push_back({static_cast<std::uint32_t>(k), patches[k]});
+        }
+      }
+    }
+    TrimStats trim;
+    tile = trim_unclaimed_points(tile, h, &trim, others, static_cast<std::uint32_t>(first));
+    stats.untrimmed_codeword_points += trim.points_before;
+    codebook = std::move(tile.codebook);
+  }
+  for (Codeword& w : codebook) pending.push_back(std::move(w));
+  return write_codebook_blocks(false);
 }
 
 // Writes the pending code words' whole blocks (and, when `last`, the partial one), each encoded,
@@ -444,7 +563,7 @@ Status ContainerStreamWriter::Impl::write_codebook_blocks(bool last) {
   const std::size_t blocks = last ? static_cast<std::size_t>(block_count(pending.size(), h.codewords_per_block))
                                   : pending.size() / per;
   if (blocks == 0) return Status();
-  const std::uint64_t first_index = codewords - pending.size();
+  const std::uint64_t first_index = blocked;
   std::vector<BuiltBlock> built(blocks);
   parallel_for(0, blocks, 1, [&](std::size_t b) {
     BuiltBlock& block = built[b];
@@ -476,6 +595,7 @@ Status ContainerStreamWriter::Impl::write_codebook_blocks(bool last) {
     codebook_seek += encode_seek_entry(b.entry, false);
     SSPC_RETURN_IF_ERROR(codebook_section.append(*sink, b.stored));
     ++stats.codebook_blocks;
+    blocked += b.entry.count;
   }
   pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(std::min(pending.size(), blocks * per)));
   return Status();
@@ -588,6 +708,16 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
   if (m.finished) return internal_error("ContainerStreamWriter::finish twice");
   m.finished = true;
   ContainerHeader& h = m.h;
+  for (std::size_t t = 0; t + 1 < m.tile_first_patch.size(); ++t) {
+    std::vector<Codeword> codebook;
+    if (m.spill) {
+      SSPC_ASSIGN_OR_RETURN(codebook, m.spill->get(t));
+    } else {
+      codebook = std::move(m.held[t]);
+    }
+    SSPC_RETURN_IF_ERROR(m.write_tile_codebook(t, std::move(codebook)));
+  }
+  m.spill.reset();
   SSPC_RETURN_IF_ERROR(m.write_codebook_blocks(true));
   h.codeword_count = static_cast<std::uint32_t>(m.codewords);
   h.patch_count = static_cast<std::uint32_t>(m.patches.size());

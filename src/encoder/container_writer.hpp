@@ -71,11 +71,13 @@ struct ContainerStats {
   std::array<std::uint64_t, kChannelCount> channel_bytes{};
 };
 
-// A container written as its model comes, tile by tile (a tiled encode, encoder/tiling.hpp): the
-// code-book blocks of each tile go out as it is added, so the writer holds one tile's code book,
-// the patches (about 60 bytes each) and the seek tables, never the whole model. Patch blocks,
-// attributes, metadata and the header follow at finish(). One tile holding the whole model
-// writes exactly what encode_container writes (it is how encode_container writes).
+// A container written as its model comes, tile by tile (a tiled encode, encoder/tiling.hpp). A
+// code word is trimmed against every patch near its instances, so a tile's code book waits (in a
+// file beside the output, or in memory) until all patches are known; finish() then trims and
+// writes the code books one tile at a time, then the patch blocks, attributes, metadata and the
+// header. The writer holds one tile's code book, the patches (about 60 bytes each) and the seek
+// tables, never the whole model. One tile holding the whole model writes exactly what
+// encode_container writes (it is how encode_container writes).
 class ContainerStreamWriter {
  public:
   // Tile t's source of attributes (FORMAT.md, "Attributes"): points with the channels
@@ -85,9 +87,10 @@ class ContainerStreamWriter {
 
   // `model` gives what every tile shares: patch_radius, coverage_radius, spacing, source_points,
   // bounds, has_normals, has_colours, metadata (its code book and patches are not read).
-  // to_file writes a temporary file beside `path`, renamed over it by a successful finish().
+  // to_file writes a temporary file beside `path`, renamed over it by a successful finish();
+  // with `spill` the tiles' code books wait in a file beside it too, else in memory.
   static StatusOr<ContainerStreamWriter> to_file(const EncodedModel& model, const QuantOptions& options,
-                                                 const std::filesystem::path& path);
+                                                 const std::filesystem::path& path, bool spill = false);
   static StatusOr<ContainerStreamWriter> to_memory(const EncodedModel& model, const QuantOptions& options);
 
   ContainerStreamWriter(ContainerStreamWriter&&) noexcept;
@@ -105,7 +108,7 @@ class ContainerStreamWriter {
  private:
   struct Impl;
   static StatusOr<ContainerStreamWriter> open(const EncodedModel& model, const QuantOptions& options,
-                                              const std::filesystem::path* path);
+                                              const std::filesystem::path* path, bool spill);
   explicit ContainerStreamWriter(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };

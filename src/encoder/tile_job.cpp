@@ -10,7 +10,7 @@ namespace sspc::codec {
 namespace {
 
 constexpr std::string_view kJobMagic{"SSPCTJ01", 8};
-constexpr std::string_view kResultMagic{"SSPCTR01", 8};
+constexpr std::string_view kResultMagic{"SSPCTR02", 8};
 
 class Writer {
  public:
@@ -157,6 +157,7 @@ std::string serialise_tile_result(const TileResult& result) {
   const BuildStats& s = result.stats;
   w.put<std::uint64_t>(s.codebook.candidates_tested);
   w.put<std::uint64_t>(s.codebook.codeword_points);
+  w.put(result.max_coverage_distance);
   return std::move(w.out);
 }
 
@@ -195,6 +196,7 @@ StatusOr<TileResult> parse_tile_result(std::string_view bytes) {
   std::uint64_t tested = 0, points = 0;
   SSPC_RETURN_IF_ERROR(r.get(tested));
   SSPC_RETURN_IF_ERROR(r.get(points));
+  SSPC_RETURN_IF_ERROR(r.get(result.max_coverage_distance));
   if (!r.at_end()) return corrupt("tile result: bytes after its end");
   s.codebook.candidates_tested = tested;
   s.codebook.codeword_points = points;

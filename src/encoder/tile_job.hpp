@@ -29,6 +29,9 @@ StatusOr<TileJob> parse_tile_job(std::string_view bytes);
 struct TileResult {
   EncodedModel model;
   BuildStats stats;
+  // The farthest of the tile's own points from its patches' centres: an upper bound of the
+  // distance to the nearest centre of any tile.
+  double max_coverage_distance = 0;
 };
 
 std::string serialise_tile_result(const TileResult& result);

@@ -1,6 +1,7 @@
 // Tiled encoding: the cloud cut into octree-aligned tiles, each encoded on its own with a margin
-// of its neighbours' points, the tiles' patches and code words joined into one model (one
-// ordinary .sspc: random access across tiles is the block index's, as in any file).
+// of its neighbours' points, the tiles' patches and code words written one tile after the other
+// into one model (one ordinary .sspc: random access across tiles is the block index's, as in any
+// file; encoder/container_writer.hpp's ContainerStreamWriter).
 //
 // The rule that makes a tiled model the untiled one up to the centres' placement:
 // - every tile uses the whole cloud's spacing and patch radius (the level's parameters are
@@ -11,11 +12,13 @@
 //   estimated there see the same neighbourhoods (k = 16 nearest are within a few spacings);
 // - the region decoder's cells are those of all centres, across tiles: a point near a border
 //   decodes from whichever tile's centre is nearest, as it would untiled.
-// Not the paper's (§4 encodes the whole cloud at once); the memory a tile needs is that of its
-// points, which is what the scale issue's --memory-limit will size (docs/ARCHITECTURE.md).
+// Not the paper's (§4 encodes the whole cloud at once). The memory a tile needs is that of its
+// points, so a tile size follows from a memory limit, and the plan itself needs only the
+// counts of a fixed grid, which a pass over a file too large to hold gives (tile_store.hpp).
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -23,14 +26,40 @@
 
 namespace sspc::codec {
 
+// The counting grid: 2^7 cells along each axis of the bounding box (2M cells, 16 MB of counts).
+// A leaf is never finer than a grid cell, so a cell holding more than the tile size (128³ cells
+// over 1e9 points of terrain hold about 60k each) makes a tile larger than asked, never a wrong one.
+inline constexpr int kTileGridDepth = 7;
+inline constexpr std::uint32_t kNoTile = std::numeric_limits<std::uint32_t>::max();
+
 struct TilePlan {
-  std::vector<Box3f> boxes;                 // octree leaves, depth-first (Morton) order
-  std::vector<std::vector<std::uint32_t>> points;  // each leaf's points, ascending
+  Box3f bounds;  // of every point
+  int depth = kTileGridDepth;
+  std::vector<Box3f> boxes;           // octree leaves, depth-first (Morton) order
+  std::vector<std::uint64_t> points;  // each leaf's point count
+  std::vector<std::uint32_t> tile_of_cell;  // per grid cell: its leaf, or kNoTile
+
+  // The grid cell of `p`: per axis floor((p − min) / extent · 2^depth), clamped to the grid, so
+  // a point on a split plane goes to the upper side and the bounds' maximum to the last cell.
+  std::uint32_t cell_of(const Vec3f& p) const;
+  std::uint32_t tile_of(const Vec3f& p) const { return tile_of_cell[cell_of(p)]; }
+  std::size_t size() const { return boxes.size(); }
 };
 
-// Octree leaves over `positions`' bounding box, each cell split in eight until it holds at most
-// `max_points` points (or is 2^-20 of the box), empty leaves dropped. Points on a split plane go
-// to the upper half, so every point is in exactly one leaf.
+// Counts points per grid cell, then plans: octree cells split in eight while they hold more than
+// `max_points` points and are coarser than the grid, empty leaves dropped.
+class TilePlanner {
+ public:
+  explicit TilePlanner(const Box3f& bounds, int depth = kTileGridDepth);
+  void add(std::span<const Vec3f> points);
+  TilePlan plan(std::uint64_t max_points);
+
+ private:
+  TilePlan plan_;
+  std::vector<std::uint64_t> counts_;
+};
+
+// Both steps over points in memory.
 TilePlan plan_tiles(std::span<const Vec3f> positions, std::uint64_t max_points);
 
 }  // namespace sspc::codec

@@ -23,19 +23,36 @@ namespace {
 TEST(Tiling, LeavesPartitionTheCloudAndHoldAtMostTheLimit) {
   const PointCloud cloud = synthetic::torus(20000, 1.0, 0.3);
   const TilePlan plan = plan_tiles(cloud.positions, 3000);
-  ASSERT_GT(plan.boxes.size(), 6u);
-  std::vector<int> seen(cloud.size(), 0);
-  for (std::size_t t = 0; t < plan.boxes.size(); ++t) {
-    EXPECT_LE(plan.points[t].size(), 3000u);
-    EXPECT_FALSE(plan.points[t].empty());
-    EXPECT_TRUE(std::is_sorted(plan.points[t].begin(), plan.points[t].end()));
-    for (std::uint32_t i : plan.points[t]) {
-      ++seen[i];
-      EXPECT_TRUE(plan.boxes[t].contains(cloud.positions[i]));
-    }
+  ASSERT_GT(plan.size(), 6u);
+  std::vector<std::uint64_t> counted(plan.size(), 0);
+  for (const Vec3f& p : cloud.positions) {
+    const std::uint32_t t = plan.tile_of(p);
+    ASSERT_LT(t, plan.size());
+    ++counted[t];
+    EXPECT_TRUE(plan.boxes[t].contains(p));
   }
-  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), static_cast<std::ptrdiff_t>(cloud.size()));
-  EXPECT_EQ(plan_tiles(cloud.positions, 1u << 30).boxes.size(), 1u);  // one tile: the bounds
+  EXPECT_EQ(counted, plan.points);  // every point in exactly the leaf the plan counted it in
+  for (std::size_t t = 0; t < plan.size(); ++t) {
+    EXPECT_LE(plan.points[t], 3000u);
+    EXPECT_GT(plan.points[t], 0u);
+  }
+  // Leaves in depth-first order: each box starts at or after the previous in Morton order, and
+  // boxes do not overlap beyond their faces.
+  for (std::size_t t = 1; t < plan.size(); ++t) {
+    EXPECT_LT(plan.boxes[t - 1].intersection(plan.boxes[t]).volume(), 1e-9f);
+  }
+  EXPECT_EQ(plan_tiles(cloud.positions, 1u << 30).size(), 1u);  // one tile: the bounds
+}
+
+// The grid bounds a leaf's size: a cell of one grid cell holding more than the limit stays one
+// tile (larger than asked), never split below the grid.
+TEST(Tiling, ACellFinerThanTheGridIsNotSplit) {
+  std::vector<Vec3f> points(100, Vec3f(0.5f, 0.5f, 0.5f));
+  points.push_back(Vec3f::Zero());
+  points.push_back(Vec3f::Ones());
+  const TilePlan plan = plan_tiles(points, 10);
+  EXPECT_EQ(plan.points[plan.tile_of(points[0])], 100u);
+  EXPECT_EQ(plan.size(), 3u);
 }
 
 TEST(Tiling, ATiledModelDecodesLikeTheUntiledOne) {
