@@ -2,6 +2,7 @@
 // docs/FORMAT.md). IN or OUT may be "-" (stdin, stdout).
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -13,6 +14,7 @@
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
 #include "sspc/metrics.hpp"
+#include "sspc/tiled_encoder.hpp"
 
 namespace sspc::cli {
 namespace {
@@ -35,6 +37,7 @@ struct EncodeCliOptions {
   int colour_quality = EncodeOptions().colour_quality;
   int intensity_step = 1;
   std::uint64_t tile_points = 0;
+  std::string memory_limit;
   bool force = false;
   bool json = false;
 };
@@ -63,36 +66,27 @@ StatusOr<unsigned> parse_attributes(const std::string& text) {
   return bits;
 }
 
-// Keeps in `cloud` the attributes `keep` names and returns the names of those it drops, so that
-// nothing is lost silently.
-std::string drop_unkept_attributes(PointCloud& cloud, unsigned keep) {
-  LasPointAttributes dropped = std::move(cloud.las);
-  cloud.las = LasPointAttributes();
-  auto take = [](auto& from, auto& to) { to = std::move(from), from = {}; };
-  if (keep & kAttributeIntensity) take(dropped.intensity, cloud.las.intensity);
-  if (keep & kAttributeClassification) take(dropped.classification, cloud.las.classification);
-  if (keep & kAttributeReturns) {
-    take(dropped.return_number, cloud.las.return_number);
-    take(dropped.number_of_returns, cloud.las.number_of_returns);
+// --memory-limit: bytes, or a number with K, M, G or T (powers of 1024; "2G", "1.5G", "512MiB").
+StatusOr<std::uint64_t> parse_size(const std::string& text) {
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
   }
-  // Colours are kept at 8 bits a channel (the reader's PointCloud::colours): LAS's 16-bit RGB
-  // loses only what its low bytes held.
-  bool low_rgb_bits = false;
-  if ((keep & kAttributeColour) != 0 && cloud.has_colours()) {
-    bool wide = false;
-    for (const auto& c : dropped.rgb) wide = wide || std::max({c[0], c[1], c[2]}) > 255;
-    for (const auto& c : dropped.rgb) {
-      low_rgb_bits = low_rgb_bits || (wide && ((c[0] | c[1] | c[2]) & 0xFF) != 0);
-    }
-    dropped.rgb = {};
+  std::string unit = text.substr(used);
+  for (const char* suffix : {"iB", "B"}) {
+    if (unit.size() > 1 && unit.ends_with(suffix)) unit.resize(unit.size() - std::strlen(suffix));
   }
-  std::string names = dropped.empty() ? std::string() : dropped.names();
-  if (low_rgb_bits) names = names.empty() ? "RGB's low 8 bits" : names + ", RGB's low 8 bits";
-  if (cloud.has_colours() && (keep & kAttributeColour) == 0) {
-    cloud.colours = {};
-    names = names.empty() ? "colours" : "colours, " + names;
+  static const std::map<std::string, double> units{{"", 1.0}, {"K", 0x1p10}, {"k", 0x1p10}, {"M", 0x1p20},
+                                                   {"G", 0x1p30}, {"T", 0x1p40}};
+  const auto it = units.find(unit);
+  const double bytes = value * (it == units.end() ? 0.0 : it->second);
+  if (used == 0 || it == units.end() || !(bytes >= 1) || bytes > 0x1p62) {
+    return invalid_argument("--memory-limit: '" + text + "' is not a size (bytes, or a number with K, M, G or T)");
   }
-  return names;
+  return static_cast<std::uint64_t>(bytes);
 }
 
 // The stages encode() begins (src/encoder): normals when it estimates them (neighbours, PCA,
@@ -109,21 +103,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   auto progress = make_progress(global);
   // With --normals auto the count depends on the file: unknown until it is read.
   if (o.normals != NormalMode::kAuto) progress_stages(progress.get(), 1 + encode_stages(PointCloud(), o.normals));
-  ReadOptions read;
-  read.progress = progress.get();
-  auto cloud = read_cloud(o.input, read);
-  if (!cloud.ok()) return report_failure(cloud.status());
-  const std::string input_name = is_stdio(o.input) ? kStdinName : o.input;
-  // The fields the codec does not keep, or was told not to, are named, not lost silently.
   auto keep = parse_attributes(o.attributes);
   if (!keep.ok()) return report_usage_error(keep.status());
-  if (const std::string dropped = drop_unkept_attributes(*cloud, *keep); !dropped.empty()) {
-    std::fprintf(stderr, "sspc: warning: %s: not kept in the .sspc model: %s\n", input_name.c_str(),
-                 dropped.c_str());
-  }
-  progress_stages(progress.get(), 1 + encode_stages(*cloud, o.normals));
-  const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
   EncodeOptions options;
   options.level = o.level;
   if (o.patch_points > 0) options.patch_points = o.patch_points;
@@ -141,11 +122,48 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
+  if (!o.memory_limit.empty()) {
+    auto limit = parse_size(o.memory_limit);
+    if (!limit.ok()) return report_usage_error(limit.status());
+    if (is_stdio(o.input)) {
+      return report_usage_error(invalid_argument("--memory-limit reads its input in passes: give a file, not stdin"));
+    }
+    options.memory_limit = *limit;
+  }
+  ReadOptions read;
+  read.progress = progress.get();
+  const std::string input_name = is_stdio(o.input) ? kStdinName : o.input;
   StatusOr<EncodeStats> stats = invalid_argument("nothing encoded");
-  const Status written = write_output(o.output, ".sspc", [&](const std::filesystem::path& path) {
-    stats = encode(std::move(*cloud), path, options);
-    return stats.ok() ? Status() : stats.status().with_context(input_name);
-  });
+  Status written;
+  double read_seconds = 0;  // with --memory-limit the passes over the input are the plan's
+  if (options.memory_limit > 0) {
+    // Tiles sized to the limit, the input read in passes and never held (TiledEncoder::plan_file).
+    written = write_output(o.output, ".sspc", [&](const std::filesystem::path& path) {
+      const std::filesystem::path dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+      auto tiled = TiledEncoder::plan_file(o.input, options, read, dir);
+      if (!tiled.ok()) return tiled.status().with_context(input_name);
+      if (!tiled->dropped_fields().empty()) {
+        std::fprintf(stderr, "sspc: warning: %s: not kept in the .sspc model: %s\n", input_name.c_str(),
+                     tiled->dropped_fields().c_str());
+      }
+      stats = tiled->run(path, progress.get());
+      return stats.ok() ? Status() : stats.status().with_context(input_name);
+    });
+  } else {
+    auto cloud = read_cloud(o.input, read);
+    if (!cloud.ok()) return report_failure(cloud.status());
+    // The fields the codec does not keep, or was told not to, are named, not lost silently.
+    if (const std::string dropped = drop_unkept_attributes(*cloud, *keep); !dropped.empty()) {
+      std::fprintf(stderr, "sspc: warning: %s: not kept in the .sspc model: %s\n", input_name.c_str(),
+                   dropped.c_str());
+    }
+    progress_stages(progress.get(), 1 + encode_stages(*cloud, o.normals));
+    read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    written = write_output(o.output, ".sspc", [&](const std::filesystem::path& path) {
+      stats = encode(std::move(*cloud), path, options);
+      return stats.ok() ? Status() : stats.status().with_context(input_name);
+    });
+  }
   if (!written.ok()) return report_failure(written);
   progress.reset();  // finish the progress line before the summary
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -244,6 +262,10 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                   "joined into one model (0: the whole cloud at once)")
       ->check(CLI::NonNegativeNumber.description(""))
       ->type_name("N");
+  app->add_option("--memory-limit", o->memory_limit,
+                  "Hold at most about SIZE bytes (e.g. 2G): the input is read in passes, never whole, and "
+                  "encoded in octree tiles sized to the limit, which wait in files beside the output")
+      ->type_name("SIZE");
   app->add_option("--attributes", o->attributes,
                   "Per-point attributes to keep, of those the input has: all, none, or a list of "
                   "colour, intensity, classification, returns")

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include "sspc/io.hpp"
 #include "sspc/normals.hpp"
@@ -96,6 +97,11 @@ struct EncodeStats {
   double seconds_descriptors = 0;  // ... of which gathering patches and their descriptors
   double seconds_writing = 0;
 };
+
+// Keeps in `cloud` the attributes `keep` (kAttribute* bits) names and returns the names of the
+// fields it drops ("GPS time, user data"; "RGB's low 8 bits" when LAS's 16-bit colours had
+// them), so that a caller can say what is not kept: nothing is lost silently.
+std::string drop_unkept_attributes(PointCloud& cloud, unsigned keep);
 
 // Encodes `cloud` (normals are estimated when it has none, per options.normals) and writes
 // `output` atomically. Errors: kInvalidArgument for out-of-range options or a cloud of fewer

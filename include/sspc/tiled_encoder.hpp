@@ -44,6 +44,8 @@ class TiledEncoder {
   int level() const;
   std::uint64_t points() const;               // the whole cloud's
   std::size_t tile_points(std::size_t t) const;  // the tile's own points (its job carries more)
+  // plan_file: the fields of the input that are not kept (drop_unkept_attributes' names).
+  const std::string& dropped_fields() const;
   // Tile t's job, self-contained bytes for run_tile_job (on this machine or another running the
   // same sspc). Fails only when a tile's file cannot be read back.
   StatusOr<std::string> job(std::size_t t) const;
@@ -56,6 +58,8 @@ class TiledEncoder {
   StatusOr<EncodeStats> finish();
   // All three at once, the results in tile order.
   StatusOr<EncodeStats> write(const std::filesystem::path& output, std::span<const std::string> results);
+  // Every job run here, one after the other (each on all threads), and the model written.
+  StatusOr<EncodeStats> run(const std::filesystem::path& output, Progress* progress = nullptr);
 
  private:
   struct Impl;

@@ -127,11 +127,14 @@ unsigned attribute_bits(const py::object& value) {
   return bits;
 }
 
+// A str or os.PathLike argument as a path.
+std::filesystem::path file_path(py::handle h) { return h.cast<std::filesystem::path>(); }
+
 // The options encode() and TiledEncoder take, from their shared keyword arguments (option_args).
 EncodeOptions make_options(int level, std::optional<int> patch_points, std::optional<float> epsilon,
                            std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits,
                            bool store_normals, bool full_spheres, bool keep_duplicates, const py::object& attributes,
-                           int colour_quality, int intensity_step, std::uint64_t tile_points,
+                           int colour_quality, int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit,
                            const std::string& normals, const py::object& viewpoint, std::uint64_t seed) {
   EncodeOptions options;
   options.level = level;
@@ -147,6 +150,7 @@ EncodeOptions make_options(int level, std::optional<int> patch_points, std::opti
   options.colour_quality = colour_quality;
   options.intensity_step = intensity_step;
   options.tile_points = tile_points;
+  options.memory_limit = memory_limit;
   options.normals.mode = normal_mode(normals);
   if (!viewpoint.is_none()) options.normals.viewpoint = vec3(viewpoint, "viewpoint");
   options.seed = seed;
@@ -159,7 +163,7 @@ auto option_args() {
       py::arg("tau") = py::none(), py::arg("step") = py::none(), py::arg("position_bits") = py::none(),
       py::arg("store_normals") = false, py::arg("full_spheres") = false, py::arg("keep_duplicates") = false,
       py::arg("attributes") = "all", py::arg("colour_quality") = EncodeOptions().colour_quality,
-      py::arg("intensity_step") = 1, py::arg("tile_points") = 0, py::arg("normals") = "auto",
+      py::arg("intensity_step") = 1, py::arg("tile_points") = 0, py::arg("memory_limit") = 0, py::arg("normals") = "auto",
       py::arg("viewpoint") = py::none(), py::arg("seed") = 1);
 }
 
@@ -167,14 +171,23 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
                         int level, std::optional<int> patch_points, std::optional<float> epsilon,
                         std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
                         bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
-                        int intensity_step, std::uint64_t tile_points, const std::string& normals,
+                        int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit, const std::string& normals,
                         const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
-  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
-  check(cloud.validate());
+  // A file's path: encode_file reads it (in passes, never whole, under memory_limit).
+  const bool from_file = py::isinstance<py::str>(cloud_or_positions) || py::hasattr(cloud_or_positions, "__fspath__");
+  PointCloud cloud;
+  std::filesystem::path input;  // converted while the GIL is held
+  if (!from_file) {
+    cloud = cloud_from(cloud_or_positions, "cloud");
+    check(cloud.validate());
+  } else {
+    input = file_path(cloud_or_positions);
+    if (memory_limit == 0) cloud = value_or_raise(without_gil([&] { return read_point_cloud(input); }));
+  }
   EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
                                        full_spheres, keep_duplicates, attributes, colour_quality, intensity_step,
-                                       tile_points, normals, viewpoint, seed);
+                                       tile_points, memory_limit, normals, viewpoint, seed);
   CallbackProgress reporter(progress);
   options.progress = reporter.get();
   ThreadLimit limit(threads);
@@ -183,7 +196,10 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   if (!path) scratch.emplace();
   const std::filesystem::path& output = path ? *path : scratch->path();
   const auto start = std::chrono::steady_clock::now();
-  auto stats = without_gil([&] { return encode(std::move(cloud), output, options); });
+  auto stats = without_gil([&] {
+    return from_file && memory_limit > 0 ? encode_file(input, output, options)
+                                         : encode(std::move(cloud), output, options);
+  });
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   reporter.rethrow();
   const EncodeStats s = value_or_raise(std::move(stats));
@@ -371,19 +387,24 @@ TiledEncoder plan_tiled(const py::object& cloud_or_positions, int level, std::op
                         std::optional<float> epsilon, std::optional<float> tau, std::optional<float> step,
                         std::optional<int> position_bits, bool store_normals, bool full_spheres,
                         bool keep_duplicates, const py::object& attributes, int colour_quality, int intensity_step,
-                        std::uint64_t tile_points, const std::string& normals, const py::object& viewpoint,
-                        std::uint64_t seed) {
-  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
+                        std::uint64_t tile_points, std::uint64_t memory_limit, const std::string& normals, const py::object& viewpoint,
+                        std::uint64_t seed, const py::object& work_dir) {
   const EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
                                              full_spheres, keep_duplicates, attributes, colour_quality,
-                                             intensity_step, tile_points, normals, viewpoint, seed);
+                                             intensity_step, tile_points, memory_limit, normals, viewpoint, seed);
+  if (py::isinstance<py::str>(cloud_or_positions) || py::hasattr(cloud_or_positions, "__fspath__")) {
+    const std::filesystem::path input = file_path(cloud_or_positions);
+    const std::filesystem::path dir = work_dir.is_none() ? std::filesystem::temp_directory_path() : file_path(work_dir);
+    return value_or_raise(without_gil([&] { return TiledEncoder::plan_file(input, options, {}, dir); }));
+  }
+  PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
   return value_or_raise(without_gil([&] { return TiledEncoder::plan(std::move(cloud), options); }));
 }
 
 constexpr const char* kEncodeDoc = R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
 
-cloud: a PointCloud or an (N, 3) position array (copied once: the encoder adds normals).
+cloud: a PointCloud, an (N, 3) position array (copied once: the encoder adds normals), or a file's path.
 path: the .sspc file to write (atomically); the statistics of `sspc encode --json` come back as a
 dict (level, points, patches, codewords, bits_per_point, file_bytes, ..., seconds). None: the
 file's bytes come back instead (encoded through a temporary file, then read into one bytes object).
@@ -397,6 +418,8 @@ attributes ('all', 'none', or names among colour, intensity, classification, ret
 per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
 intensity_step 1..4096 (1: lossless) set their rates; tile_points > 0 encodes in octree tiles of
 at most that many points, each with a margin of its neighbours', joined into one model;
+memory_limit (bytes) with `cloud` a file's path reads it in passes, never whole, and encodes in
+tiles sized to the limit (sspc encode --memory-limit);
 normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint
 orients estimated normals towards a point; seed; threads > 0 caps the worker threads.
 
@@ -415,13 +438,44 @@ void bind_tiled_encoder(py::module_& m) {
 A tiled encode split into jobs that may run elsewhere (sspc.distributed runs them on Dask).
 
 TiledEncoder(cloud, *, tile_points, level=5, ...) takes encode's keyword arguments; tile_points
-(> 0) bounds a tile's own points. job(t) gives tile t's self-contained input as bytes, which
-sspc.run_tile_job turns into the tile's result on any machine running this sspc; write(path,
-results) joins the results (in tile order) and writes the model, returning encode's statistics.
+(> 0) bounds a tile's own points. `cloud` may be a file's path: it is then read in passes and
+never held whole, its tiles waiting in files of a hidden folder in work_dir (default: the
+system's temporary folder), and memory_limit (bytes) sizes the tiles when tile_points is 0.
+job(t) gives tile t's self-contained input as bytes, which sspc.run_tile_job turns into the
+tile's result on any machine running this sspc; begin(path), add(t, result) in any order and
+finish() write the model (write(path, results) does all three), returning encode's statistics.
 The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
-            .def(py::init(&plan_tiled), py::arg("cloud"), py::kw_only(), options...)
+            .def(py::init(&plan_tiled), py::arg("cloud"), py::kw_only(), options..., py::arg("work_dir") = py::none())
             .def_property_readonly("tile_count", &TiledEncoder::tile_count, "The number of tiles.")
             .def("tile_points", &TiledEncoder::tile_points, py::arg("t"), "Tile t's own points.")
+            .def_property_readonly("points", &TiledEncoder::points, "The whole cloud's points.")
+            .def_property_readonly("dropped_fields", &TiledEncoder::dropped_fields,
+                                   "A file's fields that are not kept (comma-separated names; '' for none).")
+            .def(
+                "begin",
+                [](TiledEncoder& e, const std::filesystem::path& path) {
+                  check(without_gil([&] { return e.begin(path); }));
+                },
+                py::arg("path"), "Starts writing the model to `path` (atomically: it appears at finish()).")
+            .def(
+                "add",
+                [](TiledEncoder& e, std::size_t t, const py::bytes& result) {
+                  std::string bytes = result;
+                  check(without_gil([&] { return e.add(t, std::move(bytes)); }));
+                },
+                py::arg("t"), py::arg("result"),
+                "Tile t's result, in any order; written as soon as every tile before it is.")
+            .def(
+                "finish",
+                [](TiledEncoder& e) {
+                  const auto start = std::chrono::steady_clock::now();
+                  const EncodeStats s = value_or_raise(without_gil([&] { return e.finish(); }));
+                  const double seconds =
+                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                  return encode_stats(s, e.level(), seconds);
+                },
+                "Writes the rest of the model once every tile's result is added; encode's statistics (seconds: "
+                "this call's).")
             .def(
                 "job",
                 [](const TiledEncoder& e, std::size_t t) {

@@ -4,6 +4,7 @@ file `sspc.encode(cloud, path, tile_points=N, ...)` writes on one machine.
 
     python3 -m sspc.distributed encode IN.ply OUT.sspc --tile-points 2000000 --scheduler tcp://host:8786
     python3 -m sspc.distributed encode IN.ply OUT.sspc --tile-points 500000 --workers 2   # a local cluster
+    python3 -m sspc.distributed encode IN.las OUT.sspc --memory-limit 2G --workers 2   # never held whole
 
 or from Python:
 
@@ -12,12 +13,14 @@ or from Python:
     stats = sspc.distributed.encode("scan.ply", "scan.sspc", client=Client("tcp://host:8786"),
                                     tile_points=2_000_000, level=5)
 
-How it divides the work: the client reads the cloud, plans the tiles (octree cells of at most
-tile_points points, src/encoder/tiling.hpp) and measures the spacing and patch radius they share;
+How it divides the work: the client reads the cloud (a file in passes, spilling each tile's points
+to a file of its own, when given a path), plans the tiles (octree cells of at most tile_points
+points, src/encoder/tiling.hpp) and measures the spacing and patch radius they share;
 each task gets one tile's job, which carries the tile's points with a margin of its neighbours'
 (about 24 bytes a point and a third more for the margin), and returns the tile's model (normals,
-patches and code book are the worker's work, nearly all of an encode's time). The client then
-joins the models, codes the attributes and writes the file. On a real cluster every worker needs
+patches and code book are the worker's work, nearly all of an encode's time). The client adds
+the results as they come, in tile order, then trims the code books, codes the attributes and
+writes the file, holding a few jobs and results at a time. On a real cluster every worker needs
 the same sspc build and nothing else: jobs travel through the scheduler, so no shared storage is
 needed; what limits the speed-up is the client's reading and planning and the final write, both
 serial (on autzen about a tenth of a one-machine encode), and the jobs' transfer over the network.
@@ -41,18 +44,23 @@ def _run_job(job, threads):
     return run(job, threads=threads)
 
 
-def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_threads=None, tile_points,
-           **options):
-    """Encodes `cloud` (a PointCloud or a path sspc.read reads) into `path` with its tiles run on
-    Dask. Give a `client` (dask.distributed.Client), or a `scheduler` address, or neither for a
-    local cluster of `workers` processes (default: one per core, one thread each). `job_threads`
-    caps the threads of one job (default: 1 on a local cluster, whose workers share the cores; all
-    of a worker's cores otherwise). The keyword options are sspc.encode's; returns its statistics
-    plus `tiles`, `dask_workers` and the seconds of the three stages (plan, tiles, write)."""
+def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_threads=None, tile_points=0,
+           memory_limit=0, work_dir=None, **options):
+    """Encodes `cloud` (a PointCloud, or a file's path, which is then read in passes and never held
+    whole) into `path` with its tiles run on Dask. Give a `client` (dask.distributed.Client), or a
+    `scheduler` address, or neither for a local cluster of `workers` processes (default: one per
+    core, one thread each). `job_threads` caps the threads of one job (default: 1 on a local
+    cluster, whose workers share the cores; all of a worker's cores otherwise). tile_points bounds a
+    tile's points; with a path, memory_limit (bytes) may size them instead, and the tiles wait in
+    files of a hidden folder in work_dir (default: the system's temporary folder). The other keyword
+    options are sspc.encode's; returns its statistics plus `tiles`, `dask_workers` and the seconds of
+    the three stages (plan, tiles, write)."""
     from dask.distributed import Client, LocalCluster, as_completed
 
-    if isinstance(cloud, (str, bytes)) or hasattr(cloud, "__fspath__"):
-        cloud = read(cloud)
+    if not tile_points and not memory_limit:
+        raise ValueError("a distributed encode needs tile_points or memory_limit")
+    if not (isinstance(cloud, (str, bytes)) or hasattr(cloud, "__fspath__")) and memory_limit:
+        raise ValueError("memory_limit needs the cloud as a file's path")
     own_cluster = None
     if client is None:
         if scheduler is not None:
@@ -65,26 +73,30 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         job_threads = 1 if own_cluster is not None else 0
     try:
         start = time.perf_counter()
-        tiled = TiledEncoder(cloud, tile_points=tile_points, **options)
+        tiled = TiledEncoder(cloud, tile_points=tile_points, memory_limit=memory_limit, work_dir=work_dir,
+                             **options)
         planned = time.perf_counter()
-        # Largest tiles first, so that a long one does not start last, and no more jobs in flight
-        # than two a worker: a job holds its tile's points, so the client never holds them all.
-        order = sorted(range(tiled.tile_count), key=lambda t: -tiled.tile_points(t))
+        tiled.begin(path)
+        # Jobs in tile order, no more in flight than two a worker: a job holds its tile's points
+        # and a result its code book, and results are written in tile order, so the client holds
+        # a few of each at a time whatever the cloud's size.
         in_flight = max(2, 2 * len(client.scheduler_info()["workers"]))
-        results = [None] * tiled.tile_count
         pending = as_completed()
         owner = {}
-        for t in order:
+
+        def collect(done):
+            tiled.add(owner.pop(done.key), done.result())
+
+        for t in range(tiled.tile_count):
             if pending.count() >= in_flight:
-                done = next(pending)
-                results[owner.pop(done.key)] = done.result()
+                collect(next(pending))
             future = client.submit(_run_job, tiled.job(t), job_threads, pure=False, key=f"sspc-tile-{t}")
             owner[future.key] = t
             pending.add(future)
         for done in pending:
-            results[owner.pop(done.key)] = done.result()
+            collect(done)
         ran = time.perf_counter()
-        stats = tiled.write(path, results)
+        stats = tiled.finish()
         stats["seconds"] = time.perf_counter() - start
         stats["plan_seconds"] = planned - start
         stats["tiles_seconds"] = ran - planned
@@ -97,6 +109,17 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
             own_cluster.close()
 
 
+def _size(text):
+    """'2G', '512M', '1.5G' or bytes, as sspc encode --memory-limit reads them (powers of 1024)."""
+    units = {"": 1, "K": 1 << 10, "k": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+    text = text.removesuffix("iB").removesuffix("B") if len(text) > 1 else text
+    number = text.rstrip("KkMGT")
+    try:
+        return int(float(number) * units[text[len(number):]])
+    except (KeyError, ValueError):
+        raise ValueError(f"--memory-limit: {text!r} is not a size (bytes, or a number with K, M, G or T)") from None
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python3 -m sspc.distributed",
                                      description="Encode a point cloud with its tiles on a Dask cluster.")
@@ -104,7 +127,9 @@ def main(argv=None):
     enc = sub.add_parser("encode", help="compress IN into OUT.sspc")
     enc.add_argument("input")
     enc.add_argument("output")
-    enc.add_argument("--tile-points", type=int, required=True, help="at most this many points a tile")
+    enc.add_argument("--tile-points", type=int, default=0, help="at most this many points a tile")
+    enc.add_argument("--memory-limit", default="0",
+                     help="bytes the client may hold (e.g. 2G): the input is read in passes and the tiles sized to it")
     enc.add_argument("--scheduler", help="a Dask scheduler's address (default: a local cluster)")
     enc.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core)")
     enc.add_argument("-l", "--level", type=int, default=5)
@@ -112,7 +137,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     try:
         stats = encode(args.input, args.output, scheduler=args.scheduler, workers=args.workers,
-                       tile_points=args.tile_points, level=args.level)
+                       tile_points=args.tile_points, memory_limit=_size(args.memory_limit), level=args.level)
     except (OSError, ValueError, RuntimeError) as e:
         print(f"sspc.distributed: {e}", file=sys.stderr)
         return 1

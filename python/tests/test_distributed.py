@@ -45,3 +45,38 @@ def test_tiled_encoder_jobs_run_anywhere_in_any_order(bunny, tmp_path):
         tiled.write(tmp_path / "c.sspc", [b"junk"] + results[1:])
     with pytest.raises(RuntimeError):
         sspc.run_tile_job(b"SSPCTJ01" + b"\0" * 10)
+
+
+def test_a_file_read_in_passes_gives_the_bytes_of_the_cloud_in_memory(bunny, bunny_path, tmp_path):
+    # The input never held whole: three passes over the file, one file per tile in work_dir.
+    in_memory = sspc.encode(bunny, tmp_path / "memory.sspc", tile_points=9000, level=6)
+    work = tmp_path / "work"
+    work.mkdir()
+    tiled = sspc.TiledEncoder(bunny_path, tile_points=9000, level=6, work_dir=work)
+    assert tiled.tile_count == in_memory["tiles"] and tiled.points == len(bunny)
+    assert len(list(work.iterdir())) == 1  # the tiles' hidden folder
+    tiled.begin(tmp_path / "file.sspc")
+    for t in reversed(range(tiled.tile_count)):  # held until their turn, then written in order
+        tiled.add(t, sspc.run_tile_job(tiled.job(t)))
+        with pytest.raises(ValueError, match="given twice"):
+            tiled.add(t, b"")
+    stats = tiled.finish()
+    assert stats["points"] == len(bunny)
+    assert (tmp_path / "file.sspc").read_bytes() == (tmp_path / "memory.sspc").read_bytes()
+    del tiled
+    assert not list(work.iterdir())  # removed with the encoder
+    # sspc.encode from the path under a memory limit: the same bytes again.
+    sspc.encode(bunny_path, tmp_path / "limit.sspc", tile_points=9000, memory_limit=1 << 30, level=6)
+    assert (tmp_path / "limit.sspc").read_bytes() == (tmp_path / "memory.sspc").read_bytes()
+
+
+def test_dask_from_a_file_under_a_memory_limit(bunny_path, client, tmp_path):
+    import sspc.distributed  # pylint: disable=import-outside-toplevel
+
+    sspc.encode(bunny_path, tmp_path / "local.sspc", tile_points=9000, memory_limit=1 << 30, level=6)
+    stats = sspc.distributed.encode(bunny_path, tmp_path / "dask.sspc", client=client, tile_points=9000,
+                                    memory_limit=1 << 30, work_dir=tmp_path, level=6)
+    assert stats["tiles"] > 1
+    assert (tmp_path / "dask.sspc").read_bytes() == (tmp_path / "local.sspc").read_bytes()
+    with pytest.raises(ValueError, match="file's path"):
+        sspc.distributed.encode(sspc.read(bunny_path), tmp_path / "x.sspc", client=client, memory_limit=1 << 30)

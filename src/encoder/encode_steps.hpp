@@ -10,7 +10,6 @@
 #include "encoder/container_writer.hpp"
 #include "encoder/model_builder.hpp"
 #include "sspc/encoder.hpp"
-#include "sspc/tiled_encoder.hpp"
 
 namespace sspc::encoding {
 
@@ -39,9 +38,5 @@ void set_model_fields(codec::EncodedModel& model, const EncodeOptions& options, 
 // `stats` completed from what was written.
 void record_written(EncodeStats& stats, const codec::ContainerStats& written, const ContainerChoice& choice,
                     const codec::BuildStats& build_stats, std::uint64_t patches, std::uint64_t codewords);
-
-// The jobs of `tiled` run here one after the other (each in parallel inside) and the model
-// written: what encode() and encode_file() do for a tiled encode, the same bytes as on Dask.
-StatusOr<EncodeStats> run_tiles(TiledEncoder& tiled, const std::filesystem::path& output, Progress* progress);
 
 }  // namespace sspc::encoding

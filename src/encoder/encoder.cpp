@@ -32,6 +32,37 @@ int colour_step_for_quality(int quality) {
   return static_cast<int>(std::lround(std::exp2(static_cast<double>(100 - q) * 6.0 / 100.0)));
 }
 
+// drop_unkept_attributes (sspc/encoder.hpp).
+std::string drop_unkept_attributes(PointCloud& cloud, unsigned keep) {
+  LasPointAttributes dropped = std::move(cloud.las);
+  cloud.las = LasPointAttributes();
+  auto take = [](auto& from, auto& to) { to = std::move(from), from = {}; };
+  if (keep & kAttributeIntensity) take(dropped.intensity, cloud.las.intensity);
+  if (keep & kAttributeClassification) take(dropped.classification, cloud.las.classification);
+  if (keep & kAttributeReturns) {
+    take(dropped.return_number, cloud.las.return_number);
+    take(dropped.number_of_returns, cloud.las.number_of_returns);
+  }
+  // Colours are kept at 8 bits a channel (the reader's PointCloud::colours): LAS's 16-bit RGB
+  // loses only what its low bytes held.
+  bool low_rgb_bits = false;
+  if ((keep & kAttributeColour) != 0 && cloud.has_colours()) {
+    bool wide = false;
+    for (const auto& c : dropped.rgb) wide = wide || std::max({c[0], c[1], c[2]}) > 255;
+    for (const auto& c : dropped.rgb) {
+      low_rgb_bits = low_rgb_bits || (wide && ((c[0] | c[1] | c[2]) & 0xFF) != 0);
+    }
+    dropped.rgb = {};
+  }
+  std::string names = dropped.empty() ? std::string() : dropped.names();
+  if (low_rgb_bits) names = names.empty() ? "RGB's low 8 bits" : names + ", RGB's low 8 bits";
+  if (cloud.has_colours() && (keep & kAttributeColour) == 0) {
+    cloud.colours = {};
+    names = names.empty() ? "colours" : "colours, " + names;
+  }
+  return names;
+}
+
 namespace encoding {
 
 Status check_options(const EncodeOptions& o) {
@@ -208,7 +239,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
     // The jobs run here one after the other, each in parallel inside: the same bytes as on Dask.
     // TiledEncoder::plan checks the options and the cloud.
     SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan(std::move(cloud), options));
-    return encoding::run_tiles(tiled, output, options.progress);
+    return tiled.run(output, options.progress);
   }
   SSPC_RETURN_IF_ERROR(check_options(options));
   SSPC_RETURN_IF_ERROR(cloud.validate());

@@ -10,6 +10,7 @@
 
 #include "core/atomic_file.hpp"
 #include "format/attribute_coder.hpp"
+#include "sspc/encoder.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -185,6 +186,7 @@ class SpillStore final : public TileStore {
     const std::string name = input.string();
     // Pass 1: the bounds, the count and what every point carries.
     bool first = true;
+    std::vector<std::string> dropped;
     const auto learn = [&](PointCloud&& chunk) -> Status {
       SSPC_RETURN_IF_ERROR(chunk.validate());
       if (first) {
@@ -196,9 +198,18 @@ class SpillStore final : public TileStore {
       }
       input_.points += chunk.size();
       for (const Vec3f& p : chunk.positions) input_.bounds.extend(p);
+      // Each name once, in the order first seen.
+      const std::string names = drop_unkept_attributes(chunk, channels);
+      for (std::size_t at = 0; at < names.size();) {
+        const std::size_t end = std::min(names.find(", ", at), names.size());
+        std::string field = names.substr(at, end - at);
+        if (std::find(dropped.begin(), dropped.end(), field) == dropped.end()) dropped.push_back(std::move(field));
+        at = end + 2;
+      }
       return Status();
     };
     SSPC_RETURN_IF_ERROR(read_chunks(input, chunk_points, learn, read));
+    for (const std::string& field : dropped) input_.dropped += (input_.dropped.empty() ? "" : ", ") + field;
     // Pass 2: the counts, then the plan.
     TilePlanner planner(input_.bounds);
     SSPC_RETURN_IF_ERROR(read_chunks(input, chunk_points, [&](PointCloud&& chunk) -> Status {

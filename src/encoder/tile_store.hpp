@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "encoder/tiling.hpp"
 #include "sspc/io.hpp"
@@ -26,6 +27,8 @@ struct TileInput {
   std::uint8_t channels = 0;  // the attribute channels kept (attribute_coder.hpp's bits)
   Vec3d origin = Vec3d::Zero();
   CloudMetadata metadata;
+  // The fields the input has that the encode does not keep (drop_unkept_attributes' names).
+  std::string dropped;
 };
 
 class TileStore {

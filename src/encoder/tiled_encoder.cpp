@@ -44,6 +44,14 @@ struct TiledEncoder::Impl {
   const codec::TilePlan& plan() const { return store->plan(); }
   Status measure();
   Status write_waiting();
+  void stop_writing() {
+    writer.reset();
+    next = 0;
+    waiting.clear();
+    build_stats = codec::BuildStats();
+    patches = codewords = 0;
+    max_coverage_distance = 0;
+  }
 
   static std::unique_ptr<Impl> make(const EncodeOptions& options) {
     auto impl = std::make_unique<Impl>();
@@ -142,6 +150,7 @@ StatusOr<TiledEncoder> TiledEncoder::plan_file(const std::filesystem::path& inpu
 std::size_t TiledEncoder::tile_count() const { return impl_->plan().size(); }
 int TiledEncoder::level() const { return impl_->options.level; }
 std::uint64_t TiledEncoder::points() const { return impl_->store->input().points; }
+const std::string& TiledEncoder::dropped_fields() const { return impl_->store->input().dropped; }
 std::size_t TiledEncoder::tile_points(std::size_t t) const {
   return static_cast<std::size_t>(impl_->plan().points.at(t));
 }
@@ -184,8 +193,8 @@ Status TiledEncoder::begin(const std::filesystem::path& output) {
 Status TiledEncoder::Impl::write_waiting() {
   for (auto it = waiting.find(next); it != waiting.end(); it = waiting.find(next)) {
     auto tile = codec::parse_tile_result(it->second);
+    waiting.erase(it);  // a bad result may be given again
     if (!tile.ok()) return invalid_argument("tile " + std::to_string(next) + ": " + tile.status().message());
-    waiting.erase(it);
     patches += tile->model.patches.size();
     codewords += tile->model.codebook.size();
     build_stats.codebook.candidates_tested += tile->stats.codebook.candidates_tested;
@@ -237,8 +246,11 @@ StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, s
                             std::to_string(tile_count()) + " tiles");
   }
   SSPC_RETURN_IF_ERROR(begin(output));
-  for (std::size_t t = 0; t < results.size(); ++t) SSPC_RETURN_IF_ERROR(add(t, results[t]));
-  return finish();
+  Status added;
+  for (std::size_t t = 0; t < results.size() && added.ok(); ++t) added = add(t, results[t]);
+  auto stats = added.ok() ? finish() : StatusOr<EncodeStats>(added);
+  if (!stats.ok()) impl_->stop_writing();  // the temporary file removed; write() may be called again
+  return stats;
 }
 
 // Measured on autzen (10.6M points, level 5, 2 threads): peak resident bytes per point of a
@@ -264,26 +276,23 @@ StatusOr<std::string> run_tile_job(std::string_view bytes) {
   return codec::serialise_tile_result(result);
 }
 
-namespace encoding {
-
-StatusOr<EncodeStats> run_tiles(TiledEncoder& tiled, const std::filesystem::path& output, Progress* progress) {
+StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Progress* progress) {
   const auto start = std::chrono::steady_clock::now();
-  SSPC_RETURN_IF_ERROR(tiled.begin(output));
-  progress_begin(progress, "tiles", tiled.tile_count(), "tiles");
-  for (std::size_t t = 0; t < tiled.tile_count(); ++t) {
-    SSPC_ASSIGN_OR_RETURN(const std::string job, tiled.job(t));
+  SSPC_RETURN_IF_ERROR(begin(output));
+  progress_begin(progress, "tiles", tile_count(), "tiles");
+  for (std::size_t t = 0; t < tile_count(); ++t) {
+    SSPC_ASSIGN_OR_RETURN(const std::string job, this->job(t));
     SSPC_ASSIGN_OR_RETURN(std::string result, run_tile_job(job));
-    SSPC_RETURN_IF_ERROR(tiled.add(t, std::move(result)));
+    SSPC_RETURN_IF_ERROR(add(t, std::move(result)));
     progress_advance(progress, 1);
   }
   progress_end(progress);
   const double seconds_tiles = seconds_since(start);
-  auto stats = tiled.finish();
+  auto stats = finish();
+  if (!stats.ok()) impl_->stop_writing();
   if (stats.ok()) stats->seconds_codebook = seconds_tiles;  // normals, centres and code books
   return stats;
 }
-
-}  // namespace encoding
 
 StatusOr<EncodeStats> encode_file(const std::filesystem::path& input, const std::filesystem::path& output,
                                   const EncodeOptions& options, const ReadOptions& read) {
@@ -293,7 +302,7 @@ StatusOr<EncodeStats> encode_file(const std::filesystem::path& input, const std:
   }
   const std::filesystem::path dir = output.parent_path().empty() ? std::filesystem::path(".") : output.parent_path();
   SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan_file(input, options, read, dir));
-  return run_tiles(tiled, output, options.progress);
+  return tiled.run(output, options.progress);
 }
 
 }  // namespace sspc
