@@ -121,7 +121,8 @@ TEST(CliReliability, MalformedValuesAreUsageErrors) {
         "render " + bunny() + png + " --memory-budget 8 --page-dir /nonexistent-sspc",
         "render " + bunny() + png + " --orbit 2 --camera-path " + bunny(), "encode " + bunny() + model + " --epsilon nan",
         "encode " + bunny() + model + " --tau nan", "encode " + bunny() + model + " --epsilon 1e30",
-        "encode " + bunny() + model + " --tau 0"}) {
+        "encode " + bunny() + model + " --tau 0", "encode " + bunny() + model + " --memory-limit 2X",
+        "encode " + bunny() + model + " --memory-limit -1G", "encode - " + model + " --memory-limit 1G"}) {
     const CliRun run = sspc(dir, args);
     EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.err;
   }
@@ -224,6 +225,19 @@ TEST(CliReliability, RenderCompareReportsImagePsnr) {
   const CliRun text = sspc(dir, "render " + model + " -o " + a + " -f --size 64x64 --compare " + decoded, kLimit);
   EXPECT_EQ(text.exit_code, 1);
   EXPECT_NE(text.err.find("decoded.ply: not a PNG"), std::string::npos) << text.err;
+}
+
+// --memory-limit reads the input in passes and tiles it: the bytes of the same tiles of the cloud
+// held in memory, and nothing left behind beside the output (its tiles' folder is removed).
+TEST(CliReliability, AMemoryLimitEncodesTheBytesOfTheCloudInMemory) {
+  test::TempDir dir;
+  const std::string a = (dir.path() / "a.sspc").string(), b = (dir.path() / "b.sspc").string();
+  const CliRun limited = sspc(dir, "encode " + bunny() + " " + a + " -l 7 --memory-limit 0.5G --tile-points 9000", kLimit);
+  ASSERT_EQ(limited.exit_code, 0) << limited.err;
+  const CliRun in_memory = sspc(dir, "encode " + bunny() + " " + b + " -l 7 --tile-points 9000", kLimit);
+  ASSERT_EQ(in_memory.exit_code, 0) << in_memory.err;
+  EXPECT_EQ(slurp(a), slurp(b));
+  EXPECT_EQ(test::count_files(dir.path()), 4u) << "a.sspc, b.sspc, stdout.txt and stderr.txt";
 }
 
 }  // namespace
