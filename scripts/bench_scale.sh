@@ -1,0 +1,136 @@
+#!/usr/bin/env bash
+# Scale benchmark (issue: clouds larger than memory): how an encode under --memory-limit grows with
+# the input, and what Dask workers buy.
+#  1. autzen (10.6M points) encoded untiled, the reference rate; then under --memory-limit:
+#     decoded PSNR of both (paper, `sspc eval`), bits per point, points/s, CPU seconds per
+#     million points, peak resident memory (GNU time's maximum RSS, the process's own count).
+#  2. Generated clouds of each size in SIZES (scripts/make_large_cloud.py: jittered, turned,
+#     thinned copies of autzen on a grid, binary PLY) encoded under --memory-limit: the same
+#     figures, so that their growth with size shows (10M against 100M).
+#  3. autzen under --memory-limit on a local Dask cluster of 1, 2 and 4 worker processes
+#     (python3 -m sspc.distributed): wall seconds, the speed-up over 1 worker, and whether the
+#     file is byte for byte the local encode's.
+# Writes docs/results/scale_bench.csv and its table in docs/RESULTS.md ("Scale").
+#
+# Usage: scripts/bench_scale.sh [DATA_DIR]     (default ../shared/data)
+#   SIZES="10M 100M"   LIMIT=2G   LEVEL=5   WORKERS="1 2 4"
+#   WORK=/tmp/sspc_bench_scale (generated clouds are kept there between runs; a size whose cloud
+#   and spill would not fit the free disk is skipped and named)
+# Installs what it needs (a release build with the Python module, Debian's time, python3-numpy,
+# python3-scipy, python3-distributed).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+data="${1:-../shared/data}"
+SIZES="${SIZES:-10M 100M}"
+LIMIT="${LIMIT:-2G}"
+LEVEL="${LEVEL:-5}"
+WORKERS="${WORKERS:-1 2 4}"
+WORK="${WORK:-/tmp/sspc_bench_scale}"
+if [ ! -f "$data/autzen.ply" ]; then
+  echo "bench_scale: no $data/autzen.ply; nothing to measure" >&2
+  exit 0
+fi
+bash scripts/install_deps.sh time python3-scipy
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build --target sspc_cli _sspc >/dev/null
+sspc=build/sspc
+# The Python the sspc module was built for (Debian's, which has numpy, scipy and Dask).
+py=/usr/bin/python3
+[ -x "$py" ] || py=python3
+export PYTHONPATH="$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}"
+mkdir -p "$WORK" docs/results
+csv=docs/results/scale_bench.csv
+echo "run,input,points,tiles,workers,wall_s,cpu_s,points_per_s,cpu_s_per_mpoint,peak_rss_mb,rss_bytes_per_point,bits_per_point,psnr,same_bytes" > "$csv.tmp"
+say() { if [ -t 2 ]; then echo "$@" >&2; fi; }
+
+# One measured command: wall and CPU seconds and peak RSS from GNU time into $WORK/time.txt.
+timed() { /usr/bin/time -f "%e %U %S %M" -o "$WORK/time.txt" "$@"; }
+row() {  # run input points tiles workers json_or_empty psnr same
+  python3 - "$WORK/time.txt" "$@" >> "$csv.tmp" <<'PY'
+import json, sys
+wall, user, sys_, rss = open(sys.argv[1]).read().split()[-4:]
+run, inp, points, tiles, workers, stats, psnr, same = sys.argv[2:]
+wall, cpu, rss = float(wall), float(user) + float(sys_), int(rss) * 1024
+points = int(points)
+bpp = json.load(open(stats))["bits_per_point"] if stats else ""
+print(",".join(str(v) for v in [run, inp, points, tiles, workers, f"{wall:.1f}", f"{cpu:.1f}",
+                                f"{points / wall:.0f}", f"{cpu / points * 1e6:.2f}", f"{rss / 2**20:.0f}",
+                                f"{rss / points:.1f}", f"{bpp:.4f}" if bpp != "" else "", psnr, same]))
+PY
+}
+psnr() {  # source model -> paper PSNR of the decode
+  "$sspc" --quiet decode "$2" "$WORK/decoded.ply" --force
+  "$sspc" --quiet eval "$1" "$WORK/decoded.ply" --json | python3 -c 'import json,sys; print("%.3f" % json.load(sys.stdin)["psnr"])'
+}
+field() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])' "$1" "$2"; }
+
+autzen="$data/autzen.ply"
+n_autzen=$("$sspc" info "$autzen" --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["points"])')
+say "== autzen untiled"
+timed "$sspc" --quiet encode "$autzen" "$WORK/untiled.sspc" -l "$LEVEL" --force --json > "$WORK/untiled.json"
+row untiled autzen "$n_autzen" 0 0 "$WORK/untiled.json" "$(psnr "$autzen" "$WORK/untiled.sspc")" ""
+say "== autzen --memory-limit $LIMIT"
+timed "$sspc" --quiet encode "$autzen" "$WORK/limited.sspc" -l "$LEVEL" --memory-limit "$LIMIT" --force --json > "$WORK/limited.json"
+row "memory-limit $LIMIT" autzen "$n_autzen" "$(field "$WORK/limited.json" tiles)" 0 "$WORK/limited.json" \
+  "$(psnr "$autzen" "$WORK/limited.sspc")" ""
+
+skipped=""
+for size in $SIZES; do
+  points=$(python3 -c 'import sys; s=sys.argv[1]; u={"K":1e3,"M":1e6,"G":1e9,"B":1e9}; print(int(float(s[:-1])*u[s[-1]]) if s[-1] in u else int(s))' "$size")
+  cloud="$WORK/large_$size.ply"
+  # The cloud (12 bytes a point), the tiles' spill (as much) and the code books' (about as much).
+  need=$((points * 40))
+  free=$(df --output=avail -B1 "$WORK" | tail -1)
+  if [ ! -f "$cloud" ] && [ "$need" -gt "$free" ]; then
+    skipped="$skipped $size"
+    echo "bench_scale: $size points need about $((need >> 30)) GiB of disk, $((free >> 30)) GiB free: skipped" >&2
+    continue
+  fi
+  if [ ! -f "$cloud" ]; then
+    say "== generating $size points"
+    "$py" scripts/make_large_cloud.py "$autzen" "$cloud.tmp" --points "$points" >&2
+    mv "$cloud.tmp" "$cloud"
+  fi
+  say "== $size points --memory-limit $LIMIT"
+  (cd "$WORK" && timed "$OLDPWD/$sspc" --quiet encode "$cloud" "$WORK/large.sspc" -l "$LEVEL" --memory-limit "$LIMIT" --force --json) > "$WORK/large.json"
+  row "memory-limit $LIMIT" "generated $size" "$points" "$(field "$WORK/large.json" tiles)" 0 "$WORK/large.json" "" ""
+done
+
+for workers in $WORKERS; do
+  say "== autzen on Dask, $workers workers"
+  timed "$py" -m sspc.distributed encode "$autzen" "$WORK/dask.sspc" -l "$LEVEL" --memory-limit "$LIMIT" \
+    --workers "$workers" --json > "$WORK/dask.json"
+  same=no
+  if cmp -s "$WORK/dask.sspc" "$WORK/limited.sspc"; then same=yes; fi
+  row dask autzen "$n_autzen" "$(field "$WORK/dask.json" tiles)" "$workers" "$WORK/dask.json" "" "$same"
+done
+mv "$csv.tmp" "$csv"
+
+python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$LIMIT" "$LEVEL" "$skipped" "$(nproc)" <<'PY'
+import csv, datetime, sys
+sys.path.insert(0, "scripts")
+from results_section import replace_section
+path, results, commit, limit, level, skipped, cores = sys.argv[1:]
+rows = list(csv.DictReader(open(path)))
+lines = [f"Measured {datetime.date.today()} at commit {commit} by `scripts/bench_scale.sh` on {cores} cores, "
+         f"level {level}; raw figures in `docs/results/scale_bench.csv`. Peak RSS is GNU time's maximum resident "
+         "set (for Dask, of the client process; workers are separate processes). CPU s per million points is "
+         "user + system time over the input's points. The generated clouds are jittered, turned and thinned copies "
+         "of autzen (`scripts/make_large_cloud.py`). PSNR: the paper's, `sspc eval` of the decode against the "
+         "input.", ""]
+if skipped.strip():
+    lines += [f"Skipped for lack of disk: {skipped.strip()} points.", ""]
+table = ["| run | input | points | tiles | workers | wall s | points/s | CPU s / M points | peak RSS MB | RSS B/point | bpp | PSNR dB | same bytes |",
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+one = next((float(r["wall_s"]) for r in rows if r["run"] == "dask" and r["workers"] == "1"), None)
+for r in rows:
+    workers = r["workers"] if r["run"] == "dask" else ""
+    if workers and one:
+        workers += f" ({one / float(r['wall_s']):.2f}×)"
+    table.append("| " + " | ".join([r["run"], r["input"], f"{int(r['points']):,}", r["tiles"], workers, r["wall_s"],
+                                     f"{int(r['points_per_s']):,}", r["cpu_s_per_mpoint"], r["peak_rss_mb"],
+                                     r["rss_bytes_per_point"], r["bits_per_point"], r["psnr"], r["same_bytes"]]) + " |")
+lines += table
+replace_section(results, "scale", "Scale: memory-limited and distributed encoding", lines)
+print("\n".join(table))
+PY
