@@ -67,6 +67,8 @@ StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::stri
 // normals, colours, LAS attributes, and every chunk carries the same origin and metadata. Memory
 // stays O(chunk_points) whatever the file's size (pages of the file already consumed are released).
 //
+// A chunk the sink does not move from is emptied and its memory reused for the next one.
+//
 // Errors are the whole reader's, with the same file name, line or byte offset and point number;
 // chunks handed on before an error are the cloud's first points. Where the whole reader decides
 // from every point (an origin for georeferenced coordinates, which LAS fields to keep and how its

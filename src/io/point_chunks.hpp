@@ -51,8 +51,11 @@ using ChunkHandler = std::function<Status(PointCloud& chunk, std::size_t first)>
 
 // Reads `reader` to its end in chunks of `chunk_points` points (the last one shorter; none when
 // the file has no points), each handed to `handle`, and releases the pages of `file` behind the
-// reader as it goes. Stops at the first error, the handler's included. Returns the number of
-// points read.
+// reader as it goes: after each chunk is handled, so that the handler may read the chunk's bytes
+// without bringing them back. A chunk the handler leaves in place is emptied and its memory
+// reused for the next one: a first pass, or a sink that only looks, then faults in no new pages
+// for each chunk, which costs more than decoding it. Stops at the first error, the handler's
+// included. Returns the number of points read.
 StatusOr<std::size_t> read_in_chunks(PointReader& reader, const MappedFile& file,
                                      std::size_t chunk_points, const ChunkHandler& handle);
 
