@@ -29,13 +29,19 @@ struct Chunked {
   std::vector<PointCloud> chunks;
 };
 
+// `take`: the sink moves each chunk away; otherwise it copies it, and the reader may reuse the
+// chunk's memory for the next one.
 Chunked read_chunks(const std::filesystem::path& path, std::size_t chunk_points,
-                    const ReadOptions& options = {}) {
+                    const ReadOptions& options = {}, bool take = true) {
   Chunked out;
   out.status = read_point_cloud_chunks(
       path, chunk_points,
       [&](PointCloud&& chunk) {
-        out.chunks.push_back(std::move(chunk));
+        if (take) {
+          out.chunks.push_back(std::move(chunk));
+        } else {
+          out.chunks.push_back(chunk);
+        }
         return Status();
       },
       options);
@@ -105,7 +111,7 @@ void expect_chunks_equal_whole(const std::filesystem::path& path) {
     std::vector<std::string> warnings;
     ReadOptions options;
     options.warnings = &warnings;
-    const Chunked chunked = read_chunks(path, n, options);
+    const Chunked chunked = read_chunks(path, n, options, /*take=*/n % 2 == 0);
     ASSERT_TRUE(chunked.status.ok()) << chunked.status.to_string();
     ASSERT_TRUE(chunks_make(chunked.chunks, *whole, n)) << "chunks of " << n;
     EXPECT_EQ(warnings, whole_warnings);
@@ -401,6 +407,22 @@ TEST(ReadChunks, CorruptValuesGiveTheWholeReadersErrorWithTheFilesNumbering) {
   EXPECT_NE(nan_chunks.status.message().find("point 7 "), std::string::npos)
       << nan_chunks.status.message();
   EXPECT_EQ(nan_chunks.chunks.size(), 2u) << "the chunks before the bad point are handed on";
+}
+
+// Enough points for the parallel decoders to split a chunk into several ranges.
+TEST(ReadChunks, LargerFilesDecodedInParallelRanges) {
+  test::TempDir dir;
+  PointCloud cloud = sample(150000, true, true);
+  write_file(dir.path() / "big.ply", ply(cloud, PlyEncoding::kBinaryBigEndian));
+  cloud.normals[140001].z() = std::numeric_limits<float>::infinity();
+  write_file(dir.path() / "bad.ply", ply(cloud, PlyEncoding::kBinaryLittleEndian));
+  write_file(dir.path() / "big.las", test::hand_las12(3, test::hand_points(100000), 0.01, 0, 0, 0));
+  for (const char* name : {"big.ply", "bad.ply", "big.las"}) {
+    SCOPED_TRACE(name);
+    for (const std::size_t n : {65537u, 140001u}) expect_same_outcome(dir.path() / name, n);
+  }
+  EXPECT_NE(read_chunks(dir.path() / "bad.ply", 65537).status.message().find("point 140001 "),
+            std::string::npos);
 }
 
 TEST(ReadChunks, TheSinksErrorEndsTheRead) {
