@@ -3,6 +3,8 @@
 //
 //   ReadPointCloudFile: read_point_cloud() on the path: mmap, header, parallel decode, checks.
 //   ReadPlyMapped:      read_ply() on an already-mapped file: the parser alone.
+//   ReadPointCloudChunks: read_point_cloud_chunks() on the path, chunks of 1 M points, counted
+//                       and dropped.
 //   EncodePly:          encode_ply() of the cloud to binary little-endian bytes in memory.
 #include <filesystem>
 #include <string>
@@ -45,6 +47,26 @@ void ReadPointCloudFile(benchmark::State& state) {
   report(state, std::filesystem::file_size(kAutzen), points);
 }
 BENCHMARK(ReadPointCloudFile)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void ReadPointCloudChunks(benchmark::State& state) {
+  if (skip_if_missing(state)) return;
+  std::size_t points = 0;
+  for (auto _ : state) {
+    points = 0;
+    const sspc::Status status =
+        sspc::read_point_cloud_chunks(kAutzen, 1000000, [&](sspc::PointCloud&& chunk) {
+          points += chunk.size();
+          benchmark::DoNotOptimize(chunk.positions.data());
+          return sspc::Status();
+        });
+    if (!status.ok()) {
+      state.SkipWithError(status.to_string().c_str());
+      return;
+    }
+  }
+  report(state, std::filesystem::file_size(kAutzen), points);
+}
+BENCHMARK(ReadPointCloudChunks)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void ReadPlyMapped(benchmark::State& state) {
   if (skip_if_missing(state)) return;

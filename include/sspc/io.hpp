@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -59,6 +60,28 @@ StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
 // one the first bytes look like (extensions play no part); `name` ("stdin") heads messages.
 StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::string_view name,
                                       const ReadOptions& options = {});
+
+// Reads `path` in file order as chunks of at most `chunk_points` points, handing each to `sink`
+// (which may keep or move it); stops at the first error, the sink's included. The chunks
+// concatenated are exactly read_point_cloud(path, options)'s cloud: same positions (bit for bit),
+// normals, colours, LAS attributes, and every chunk carries the same origin and metadata. Memory
+// stays O(chunk_points) whatever the file's size (pages of the file already consumed are released).
+//
+// A chunk the sink does not move from is emptied and its memory reused for the next one.
+//
+// Errors are the whole reader's, with the same file name, line or byte offset and point number;
+// chunks handed on before an error are the cloud's first points. Where the whole reader decides
+// from every point (an origin for georeferenced coordinates, which LAS fields to keep and how its
+// colours scale, what six XYZ columns hold), a first pass over the file with the same parser
+// gathers what the decision needs, and reports any parse error before a chunk is handed on: LAS
+// and XYZ files are always read twice, PLY files when positions are stored wider than float32.
+// Progress then shows two stages, "scanning NAME" and "reading NAME", each over the file's bytes.
+// PCD files are read whole and then handed on in chunks: their memory is the whole cloud's.
+// kInvalidArgument for chunk_points == 0 and for options.positions_f64, which is not given in
+// chunks.
+Status read_point_cloud_chunks(const std::filesystem::path& path, std::size_t chunk_points,
+                               const std::function<Status(PointCloud&&)>& sink,
+                               const ReadOptions& options = {});
 
 // The readers over bytes in memory; `name` is used in error messages.
 StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name);

@@ -1,5 +1,6 @@
 #include "core/mapped_file.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
@@ -230,6 +231,20 @@ bool MappedFile::truncated() const {
 Status MappedFile::check_intact() const {
   if (truncated()) return io_error(shrank_message(path_, size_));
   return Status();
+}
+
+void MappedFile::release(std::size_t begin, std::size_t end) const {
+  if (copy_ != nullptr || data_ == nullptr) return;
+  end = std::min(end, size_);
+  // Only whole pages: the neighbours of a partial one may still be read. The file's last page
+  // is whole as far as the mapping goes.
+  const std::size_t page = g_page_size;
+  const std::size_t first = (begin + page - 1) / page * page;
+  const std::size_t last = end == size_ ? end : end / page * page;
+  if (first >= last) return;
+  // A failure leaves the pages resident: memory, not correctness, so nothing to report.
+  [[maybe_unused]] const int rc =
+      madvise(const_cast<std::byte*>(data_) + first, last - first, MADV_DONTNEED);
 }
 
 StatusOr<MappedFile> MappedFile::open(const std::filesystem::path& path) {

@@ -53,6 +53,13 @@ class MappedFile {
   // kIoError "PATH: the file shrank while it was read (was N bytes)" when truncated().
   Status check_intact() const;
 
+  // Hands the pages wholly inside bytes [begin, end) back to the kernel, so that a reader
+  // streaming through a file larger than memory holds only the part it is at: the file's pages
+  // count toward the process's resident memory for as long as they stay mapped in. A page touched
+  // again is read from the file again. Does nothing to the in-memory copy made when the fault
+  // table was full.
+  void release(std::size_t begin, std::size_t end) const;
+
  private:
   void reset();
 

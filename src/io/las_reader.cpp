@@ -14,12 +14,16 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/byte_reader.hpp"
 #include "core/parallel.hpp"
 #include "io/las_format.hpp"
 #include "io/las_header.hpp"
+#include "io/point_chunks.hpp"
 #include "io/reader_common.hpp"
 #include "io/scalar_type.hpp"
 
@@ -116,53 +120,97 @@ std::string axis_warning(std::string_view name, int axis, std::int64_t lo, std::
   return std::string(name) + ": " + buf;
 }
 
-// Drops an array whose values are all zero: the field is in every record of the format, and an
-// all-zero one (no user data, no point source) says nothing that a writer would not restore.
-template <typename T>
-void drop_if_zero(std::vector<T>& values) {
-  if (std::all_of(values.begin(), values.end(), [](const T& v) { return v == T{}; })) {
-    values = {};
+// What the fields every record holds say over the whole file. A field that is zero in every
+// record (no user data, no point source) is dropped: it is in every record of the format and says
+// nothing that a writer would not restore; likewise single returns (1 of 1) everywhere, which is
+// what a writer without return numbers writes. Colours scale down by their high bytes unless
+// every value is below 256 (writers that store 8-bit values unscaled, which the specification's
+// "normalised to 16 bits" rules out but many files do). Parts merge in any order.
+struct LasFieldSummary {
+  bool intensity = false, classification = false, classification_flags = false;
+  bool scan_angle = false, scan_flags = false, user_data = false, point_source_id = false;
+  bool multiple_returns = false;
+  bool rgb_above_255 = false;
+
+  void add(const LasPointAttributes& a) {
+    intensity = intensity || any_nonzero(a.intensity);
+    classification = classification || any_nonzero(a.classification);
+    classification_flags = classification_flags || any_nonzero(a.classification_flags);
+    scan_angle = scan_angle || any_nonzero(a.scan_angle);
+    scan_flags = scan_flags || any_nonzero(a.scan_flags);
+    user_data = user_data || any_nonzero(a.user_data);
+    point_source_id = point_source_id || any_nonzero(a.point_source_id);
+    for (std::size_t i = 0; i < a.return_number.size() && !multiple_returns; ++i) {
+      multiple_returns = a.return_number[i] != 1 || a.number_of_returns[i] != 1;
+    }
+    for (std::size_t i = 0; i < a.rgb.size() && !rgb_above_255; ++i) {
+      rgb_above_255 = std::max({a.rgb[i][0], a.rgb[i][1], a.rgb[i][2]}) > 255;
+    }
+  }
+
+ private:
+  template <typename T>
+  static bool any_nonzero(const std::vector<T>& values) {
+    return std::any_of(values.begin(), values.end(), [](const T& v) { return !(v == T{}); });
+  }
+};
+
+// Drops the fields the summary of the whole file finds empty and sets the 8-bit colours, in a
+// cloud that is the whole file or a chunk of it.
+void apply_summary(const LasFieldSummary& s, PointCloud& cloud) {
+  LasPointAttributes& a = cloud.las;
+  if (!s.intensity) a.intensity = {};
+  if (!s.classification) a.classification = {};
+  if (!s.classification_flags) a.classification_flags = {};
+  if (!s.scan_angle) a.scan_angle = {};
+  if (!s.scan_flags) a.scan_flags = {};
+  if (!s.user_data) a.user_data = {};
+  if (!s.point_source_id) a.point_source_id = {};
+  if (!s.multiple_returns) {
+    a.return_number = {};
+    a.number_of_returns = {};
+  }
+  if (a.rgb.empty()) return;
+  cloud.colours.resize(a.rgb.size());
+  const unsigned shift = s.rgb_above_255 ? 8 : 0;
+  for (std::size_t i = 0; i < a.rgb.size(); ++i) {
+    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(a.rgb[i][0] >> shift),
+                            static_cast<std::uint8_t>(a.rgb[i][1] >> shift),
+                            static_cast<std::uint8_t>(a.rgb[i][2] >> shift)};
   }
 }
 
-// Single returns (1 of 1) everywhere are what a writer without return numbers writes.
-void drop_if_single_returns(LasPointAttributes& a) {
-  for (std::size_t i = 0; i < a.return_number.size(); ++i) {
-    if (a.return_number[i] != 1 || a.number_of_returns[i] != 1) return;
-  }
-  a.return_number = {};
-  a.number_of_returns = {};
-}
-
-void decode_records(const std::byte* records, const LasHeader& h, const std::int64_t* anchor,
-                    PointCloud& cloud) {
+// Decodes the `n` records from `records` on and appends them to `cloud`, every array of which is
+// as long as its positions. `anchor`: the integers of the origin, or nullptr for none.
+void decode_records(const std::byte* records, std::size_t n, const LasHeader& h,
+                    const std::int64_t* anchor, PointCloud& cloud) {
   const int format = h.source.point_format;
   const las::PointLayout layout = las::point_layout(format);
-  const std::size_t n = static_cast<std::size_t>(h.point_count);
   const std::size_t stride = h.record_length;
   const std::size_t extra = stride - las::kMinRecordLength[static_cast<std::size_t>(format)];
+  const std::size_t m = cloud.positions.size();
   LasPointAttributes& a = cloud.las;
-  cloud.positions.resize(n);
-  a.intensity.resize(n);
-  a.return_number.resize(n);
-  a.number_of_returns.resize(n);
-  a.classification.resize(n);
-  a.classification_flags.resize(n);
-  a.scan_angle.resize(n);
-  a.scan_flags.resize(n);
-  a.user_data.resize(n);
-  a.point_source_id.resize(n);
-  if (layout.gps >= 0) a.gps_time.resize(n);
-  if (layout.rgb >= 0) a.rgb.resize(n);
-  if (layout.nir >= 0) a.nir.resize(n);
+  cloud.positions.resize(m + n);
+  a.intensity.resize(m + n);
+  a.return_number.resize(m + n);
+  a.number_of_returns.resize(m + n);
+  a.classification.resize(m + n);
+  a.classification_flags.resize(m + n);
+  a.scan_angle.resize(m + n);
+  a.scan_flags.resize(m + n);
+  a.user_data.resize(m + n);
+  a.point_source_id.resize(m + n);
+  if (layout.gps >= 0) a.gps_time.resize(m + n);
+  if (layout.rgb >= 0) a.rgb.resize(m + n);
+  if (layout.nir >= 0) a.nir.resize(m + n);
   a.extra_bytes_per_point = extra;
-  a.extra_bytes.resize(n * extra);
+  a.extra_bytes.resize((m + n) * extra);
   const Vec3d scale = h.source.scale;
   const Vec3d offset = h.source.offset;
   constexpr Endian le = Endian::kLittle;
-  parallel_for_ranges(0, n, 1 << 15, [&](std::size_t b, std::size_t e) {
+  parallel_for_ranges(m, m + n, 1 << 15, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
-      const std::byte* r = records + i * stride;
+      const std::byte* r = records + (i - m) * stride;
       for (int k = 0; k < 3; ++k) {
         const std::int64_t v = load<std::int32_t>(r + 4 * static_cast<std::size_t>(k), le);
         const double local = anchor != nullptr ? scale[k] * static_cast<double>(v - anchor[k])
@@ -208,23 +256,6 @@ void decode_records(const std::byte* records, const LasHeader& h, const std::int
   });
 }
 
-// 16-bit colours to the cloud's 8-bit ones: the high bytes, unless every value is below 256
-// (writers that store 8-bit values unscaled, which the specification's "normalised to 16 bits"
-// rules out but many files do).
-void set_colours(PointCloud& cloud) {
-  const auto& rgb = cloud.las.rgb;
-  if (rgb.empty()) return;
-  bool wide = false;
-  for (const auto& c : rgb) wide = wide || std::max({c[0], c[1], c[2]}) > 255;
-  cloud.colours.resize(rgb.size());
-  const unsigned shift = wide ? 8 : 0;
-  for (std::size_t i = 0; i < rgb.size(); ++i) {
-    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(rgb[i][0] >> shift),
-                           static_cast<std::uint8_t>(rgb[i][1] >> shift),
-                           static_cast<std::uint8_t>(rgb[i][2] >> shift)};
-  }
-}
-
 // The CRS and the extra-bytes description are kept; other records are named as dropped.
 void keep_records(const LasHeader& h, PointCloud& cloud, std::string& dropped) {
   for (const LasRecord& r : h.vlrs) {
@@ -245,42 +276,92 @@ void keep_records(const LasHeader& h, PointCloud& cloud, std::string& dropped) {
   }
 }
 
-}  // namespace
+// The records of a LAS file as a PointReader (io/point_chunks.hpp), a range at a time.
+// `check_finite`: refuse a position that float32 cannot hold (a first pass, whose positions are
+// not used, leaves that to the pass that keeps them).
+class LasRecordReader final : public PointReader {
+ public:
+  LasRecordReader(std::span<const std::byte> data, const LasHeader& h, const std::int64_t* anchor,
+                  std::string_view name, Progress* progress, bool check_finite)
+      : data_(data),
+        h_(h),
+        anchor_(anchor),
+        name_(name),
+        progress_(progress),
+        check_finite_(check_finite),
+        count_(static_cast<std::size_t>(h.point_count)) {}
 
-StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std::string_view name,
-                                           const ReadOptions& options) {
-  SSPC_ASSIGN_OR_RETURN(const LasHeader h, parse_las_header(data, name));
-  if (h.point_count > std::numeric_limits<std::size_t>::max() / 64) {
-    return error_in(StatusCode::kResourceExhausted, name, "too many points");
+  Status read(std::size_t max_points, PointCloud& out) override {
+    const std::size_t n = std::min(count_ - next_, max_points);
+    const std::size_t first = out.size();
+    decode_records(data_.data() + consumed(), n, h_, anchor_, out);
+    if (const auto bad = check_finite_ ? first_non_finite_point(out, first) : std::nullopt) {
+      const std::size_t point = next_ + (*bad - first);
+      return non_finite_error(
+          name_, out, *bad,
+          "byte offset " + std::to_string(h_.point_data_offset + point * h_.record_length),
+          next_ - first);
+    }
+    const std::size_t before = next_ == 0 ? 0 : consumed();
+    next_ += n;
+    done_ = next_ == count_;
+    // The header and the (E)VLRs count with the first and the last records.
+    progress_advance(progress_, (done_ ? data_.size() : consumed()) - before);
+    return Status();
   }
-  const std::byte* records = data.data() + h.point_data_offset;
-  const auto n = static_cast<std::size_t>(h.point_count);
-  const IntegerRange range = integer_range(records, n, h.record_length);
 
-  PointCloud cloud;
-  std::vector<std::string> notes;
+  bool done() const override { return done_; }
+  std::size_t consumed() const override {
+    return static_cast<std::size_t>(h_.point_data_offset) + next_ * h_.record_length;
+  }
+
+ private:
+  std::span<const std::byte> data_;
+  const LasHeader& h_;
+  const std::int64_t* anchor_;
+  std::string_view name_;
+  Progress* progress_;
+  bool check_finite_;
+  std::size_t count_;
+  std::size_t next_ = 0;
+  bool done_ = false;
+};
+
+// The origin the integer range of every record calls for, and the warnings about axes too wide
+// for float32 to keep every integer.
+struct LasOrigin {
+  bool any = false;
   std::int64_t anchor[3] = {0, 0, 0};
-  bool any_origin = false;
-  for (int k = 0; k < 3 && n != 0; ++k) {
-    any_origin = any_origin || axis_needs_origin(range.min[k], range.max[k], h.source.scale[k],
-                                                 h.source.offset[k]);
+  Vec3d origin = Vec3d::Zero();
+};
+
+LasOrigin choose_origin(const IntegerRange& range, const LasHeader& h, std::string_view name,
+                        std::vector<std::string>& notes) {
+  LasOrigin out;
+  for (int k = 0; k < 3 && h.point_count != 0; ++k) {
+    out.any = out.any ||
+              axis_needs_origin(range.min[k], range.max[k], h.source.scale[k], h.source.offset[k]);
   }
   // Every axis then gets one, so that no axis keeps a large offset in its local values.
-  for (int k = 0; k < 3 && any_origin; ++k) {
+  for (int k = 0; k < 3 && out.any; ++k) {
     const AxisOrigin axis =
         choose_axis_origin(range.min[k], range.max[k], h.source.scale[k], h.source.offset[k]);
-    anchor[k] = axis.anchor;
-    cloud.origin[k] = axis.origin;
+    out.anchor[k] = axis.anchor;
+    out.origin[k] = axis.origin;
     if (static_cast<double>(range.max[k] - range.min[k]) >= 2 * kExactSteps) {
       notes.push_back(axis_warning(name, k, range.min[k], range.max[k], h.source.scale[k]));
     }
   }
-  decode_records(records, h, any_origin ? anchor : nullptr, cloud);
-  progress_advance(options.progress, data.size());
+  return out;
+}
 
-  cloud.metadata.las = h.source;
+// The header's part of the cloud's metadata, with notes on what is dropped.
+CloudMetadata las_metadata(const LasHeader& h, std::string_view name,
+                           std::vector<std::string>& notes) {
+  PointCloud holder;
+  holder.metadata.las = h.source;
   std::string dropped;
-  keep_records(h, cloud, dropped);
+  keep_records(h, holder, dropped);
   if (!dropped.empty()) {
     notes.push_back(std::string(name) +
                     ": dropped variable-length records sspc does not carry: " + dropped);
@@ -290,31 +371,84 @@ StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std:
                     ": dropped the waveform packet descriptors of point format " +
                     std::to_string(h.source.point_format));
   }
-  LasPointAttributes& a = cloud.las;
-  drop_if_zero(a.intensity);
-  drop_if_zero(a.classification);
-  drop_if_zero(a.classification_flags);
-  drop_if_zero(a.scan_angle);
-  drop_if_zero(a.scan_flags);
-  drop_if_zero(a.user_data);
-  drop_if_zero(a.point_source_id);
-  drop_if_single_returns(a);
-  set_colours(cloud);
+  return std::move(holder.metadata);
+}
 
-  if (const auto bad = first_non_finite_point(cloud)) {
-    return non_finite_error(
-        name, cloud, *bad,
-        "byte offset " + std::to_string(h.point_data_offset + *bad * h.record_length));
+StatusOr<LasHeader> parse_and_check(std::span<const std::byte> data, std::string_view name) {
+  SSPC_ASSIGN_OR_RETURN(LasHeader h, parse_las_header(data, name));
+  if (h.point_count > std::numeric_limits<std::size_t>::max() / 64) {
+    return error_in(StatusCode::kResourceExhausted, name, "too many points");
   }
+  return h;
+}
+
+void hand_on_warnings(std::vector<std::string>& notes, const ReadOptions& options) {
+  if (options.warnings == nullptr) return;
+  for (std::string& note : notes) options.warnings->push_back(std::move(note));
+}
+
+}  // namespace
+
+StatusOr<PointCloud> read_las_with_options(std::span<const std::byte> data, std::string_view name,
+                                           const ReadOptions& options) {
+  SSPC_ASSIGN_OR_RETURN(const LasHeader h, parse_and_check(data, name));
+  const std::byte* records = data.data() + h.point_data_offset;
+  const auto n = static_cast<std::size_t>(h.point_count);
+  std::vector<std::string> notes;
+  const LasOrigin origin =
+      choose_origin(integer_range(records, n, h.record_length), h, name, notes);
+
+  PointCloud cloud;
+  LasRecordReader reader(data, h, origin.any ? origin.anchor : nullptr, name, options.progress,
+                         /*check_finite=*/true);
+  SSPC_RETURN_IF_ERROR(reader.read(std::numeric_limits<std::size_t>::max(), cloud));
+  cloud.origin = origin.origin;
+  cloud.metadata = las_metadata(h, name, notes);
+  LasFieldSummary summary;
+  summary.add(cloud.las);
+  apply_summary(summary, cloud);
+
   SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
   if (options.positions_f64 != nullptr) {
     options.positions_f64->resize(cloud.size());
     for (std::size_t i = 0; i < cloud.size(); ++i) (*options.positions_f64)[i] = cloud.world(i);
   }
-  if (options.warnings != nullptr) {
-    for (std::string& note : notes) options.warnings->push_back(std::move(note));
-  }
+  hand_on_warnings(notes, options);
   return cloud;
+}
+
+Status read_las_chunks(const ChunkedRead& in) {
+  const std::span<const std::byte> data = in.file.bytes();
+  SSPC_ASSIGN_OR_RETURN(const LasHeader h, parse_and_check(data, in.name));
+  const std::byte* records = data.data() + h.point_data_offset;
+  const std::size_t stride = h.record_length;
+
+  // The origin depends on every record's integers, the fields kept and the colours' scale on
+  // every record's values: a first pass gathers them.
+  IntegerRange range;
+  LasFieldSummary summary;
+  LasRecordReader scan(data, h, nullptr, in.name, in.options.progress, /*check_finite=*/false);
+  SSPC_RETURN_IF_ERROR(run_pass(in, Pass::kScan, scan, [&](PointCloud& chunk, std::size_t first) {
+                         range.merge(integer_range(records + first * stride, chunk.size(), stride));
+                         summary.add(chunk.las);
+                         return Status();
+                       }).status());
+
+  std::vector<std::string> notes;
+  const LasOrigin origin = choose_origin(range, h, in.name, notes);
+  const CloudMetadata metadata = las_metadata(h, in.name, notes);
+  LasRecordReader reader(data, h, origin.any ? origin.anchor : nullptr, in.name,
+                         in.options.progress, /*check_finite=*/true);
+  SSPC_ASSIGN_OR_RETURN(const std::size_t n,
+                        run_pass(in, Pass::kRead, reader, [&](PointCloud& chunk, std::size_t) {
+                          chunk.origin = origin.origin;
+                          chunk.metadata = metadata;
+                          apply_summary(summary, chunk);
+                          return in.sink(std::move(chunk));
+                        }));
+  if (n == 0) return finish_cloud(PointCloud(), in.name);
+  hand_on_warnings(notes, in.options);
+  return Status();
 }
 
 }  // namespace io

@@ -1,6 +1,8 @@
 // Ascii PLY bodies (Turk's PLY description): the element items in header order, values separated
 // by whitespace. Every writer in use puts one item per line, and sspc relies on that to report
 // the line of a problem; blank lines are ignored.
+#include <algorithm>
+#include <memory>
 #include <string>
 
 #include "io/ply_body.hpp"
@@ -11,7 +13,7 @@ namespace sspc::io {
 
 namespace {
 
-class AsciiBodyReader {
+class AsciiBodyReader final : public PointReader {
  public:
   AsciiBodyReader(std::span<const std::byte> file, const PlyHeader& header,
                   const PlyVertexLayout& layout, std::string_view name, const PlyBodySinks& sinks)
@@ -23,22 +25,23 @@ class AsciiBodyReader {
         text_(as_text(file)),
         lines_(text_.substr(std::min(header.body_offset, text_.size())), header.body_first_line) {}
 
-  Status read(PointCloud& cloud) {
-    for (std::size_t e = 0; e < header_.elements.size(); ++e) {
-      const PlyElement& element = header_.elements[e];
+  Status read(std::size_t max_points, PointCloud& out) override {
+    for (; element_ < header_.elements.size(); ++element_, item_ = 0) {
+      const PlyElement& element = header_.elements[element_];
       if (element.properties.empty()) continue;  // such items occupy no text
-      const bool is_vertex = e == layout_.element;
-      if (is_vertex) SSPC_RETURN_IF_ERROR(prepare_vertices(element, cloud));
-      for (std::uint64_t i = 0; i < element.count; ++i) {
+      const bool is_vertex = element_ == layout_.element;
+      if (is_vertex) SSPC_RETURN_IF_ERROR(prepare_vertices(element, max_points, out));
+      for (std::size_t n = 0; item_ < element.count; ++item_, ++n) {
+        if (n == max_points) return Status();  // resume here
         std::string_view line;
         if (!next_data_line(line)) {
           return error_at_line(StatusCode::kParseError, name_, lines_.line_number() + 1,
-                               "the file ends after " + std::to_string(i) + " of the " +
+                               "the file ends after " + std::to_string(item_) + " of the " +
                                    std::to_string(element.count) + " items of element " +
                                    quote_token(element.name));
         }
         SSPC_RETURN_IF_ERROR(parse_item(element, is_vertex, line));
-        if (is_vertex) SSPC_RETURN_IF_ERROR(store_vertex(element, cloud));
+        if (is_vertex) SSPC_RETURN_IF_ERROR(store_vertex(element, out));
         report_progress();
       }
     }
@@ -48,7 +51,14 @@ class AsciiBodyReader {
                            "data after the last element (the header's counts are wrong)");
     }
     progress_advance(progress_, text_.size() - reported_);
+    reported_ = text_.size();
+    done_ = true;
     return Status();
+  }
+
+  bool done() const override { return done_; }
+  std::size_t consumed() const override {
+    return std::min(header_.body_offset, text_.size()) + lines_.position();
   }
 
  private:
@@ -71,19 +81,23 @@ class AsciiBodyReader {
     return error_at_line(StatusCode::kParseError, name_, lines_.line_number(), what);
   }
 
-  Status prepare_vertices(const PlyElement& vertex, PointCloud& cloud) {
-    // Each value takes at least one character and one separator (the last line may lack its
-    // newline), so the text left bounds the number of items; a header claiming more fails here
-    // instead of reserving memory for it.
-    const std::size_t left = text_.size() - std::min(text_.size(), header_.body_offset);
-    const std::size_t min_item = 2 * vertex.properties.size();
-    if (vertex.count > (left + 1) / min_item) {
-      return error_at_line(StatusCode::kParseError, name_, vertex.line,
-                           "element 'vertex' declares " + std::to_string(vertex.count) +
-                               " items, more than the " + std::to_string(left) +
-                               " bytes of the body can hold");
+  Status prepare_vertices(const PlyElement& vertex, std::size_t max_points, PointCloud& out) {
+    if (item_ == 0) {
+      // Each value takes at least one character and one separator (the last line may lack its
+      // newline), so the text left bounds the number of items; a header claiming more fails
+      // here instead of reserving memory for it.
+      const std::size_t left = text_.size() - std::min(text_.size(), header_.body_offset);
+      const std::size_t min_item = 2 * vertex.properties.size();
+      if (vertex.count > (left + 1) / min_item) {
+        return error_at_line(StatusCode::kParseError, name_, vertex.line,
+                             "element 'vertex' declares " + std::to_string(vertex.count) +
+                                 " items, more than the " + std::to_string(left) +
+                                 " bytes of the body can hold");
+      }
     }
-    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colours);
+    const auto n =
+        static_cast<std::size_t>(std::min<std::uint64_t>(vertex.count - item_, max_points));
+    out.reserve(out.size() + n, layout_.normals, layout_.colours);
     return Status();
   }
 
@@ -147,9 +161,11 @@ class AsciiBodyReader {
     }
     const std::size_t idx = cloud.size() - 1;
     if (!cloud.positions[idx].allFinite() || (layout_.normals && !cloud.normals[idx].allFinite())) {
-      return non_finite_error(name_, cloud, idx, "line " + std::to_string(lines_.line_number()));
+      return non_finite_error(name_, cloud, idx, "line " + std::to_string(lines_.line_number()),
+                              points_ - idx);
     }
     if (wide_.wanted()) wide_.add(Vec3d(v_[kX], v_[kY], v_[kZ]), cloud.positions[idx]);
+    ++points_;
     return Status();
   }
 
@@ -162,14 +178,19 @@ class AsciiBodyReader {
   LineScanner lines_;
   double v_[kSlotCount] = {};
   std::size_t reported_ = 0;
+  std::size_t element_ = 0;  // the element being read
+  std::uint64_t item_ = 0;   // its next item
+  std::size_t points_ = 0;   // vertices read so far, for messages that number them
+  bool done_ = false;
 };
 
 }  // namespace
 
-Status read_ply_ascii_body(std::span<const std::byte> file, const PlyHeader& header,
-                           const PlyVertexLayout& layout, std::string_view name,
-                           const PlyBodySinks& sinks, PointCloud& cloud) {
-  return AsciiBodyReader(file, header, layout, name, sinks).read(cloud);
+std::unique_ptr<PointReader> make_ply_ascii_body(std::span<const std::byte> file,
+                                                 const PlyHeader& header,
+                                                 const PlyVertexLayout& layout,
+                                                 std::string_view name, const PlyBodySinks& sinks) {
+  return std::make_unique<AsciiBodyReader>(file, header, layout, name, sinks);
 }
 
 }  // namespace sspc::io

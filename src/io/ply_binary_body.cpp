@@ -3,9 +3,11 @@
 // The common layout, a vertex element without list properties, has a fixed stride: its whole
 // block is bounds-checked once and then decoded in parallel, with a memcpy per point where the
 // file's floats already have the host's byte order. Elements with list properties (faces) are
-// walked item by item through the ByteReader.
+// walked item by item through the ByteReader. The reader resumes where it stopped, so that a file
+// can be read a chunk of vertices at a time (io/point_chunks.hpp).
 #include <algorithm>
 #include <cstring>
+#include <memory>
 #include <string>
 
 #include "core/byte_reader.hpp"
@@ -19,7 +21,7 @@ namespace sspc::io {
 
 namespace {
 
-class BinaryBodyReader {
+class BinaryBodyReader final : public PointReader {
  public:
   BinaryBodyReader(std::span<const std::byte> file, const PlyHeader& header,
                    const PlyVertexLayout& layout, std::string_view name, const PlyBodySinks& sinks)
@@ -31,19 +33,29 @@ class BinaryBodyReader {
         endian_(header.format == PlyFormat::kBinaryBigEndian ? Endian::kBig : Endian::kLittle),
         reader_(file.subspan(std::min(header.body_offset, file.size())), header.body_offset) {}
 
-  Status read(PointCloud& cloud) {
-    progress_advance(progress_, header_.body_offset);
-    for (std::size_t e = 0; e < header_.elements.size(); ++e) {
+  Status read(std::size_t max_points, PointCloud& out) override {
+    if (!started_) {
+      progress_advance(progress_, header_.body_offset);
+      started_ = true;
+    }
+    for (; element_ < header_.elements.size(); ++element_, item_ = 0) {
+      const PlyElement& element = header_.elements[element_];
       const std::size_t before = reader_.offset();
-      if (e == layout_.element) {
-        SSPC_RETURN_IF_ERROR(read_vertices(cloud));
+      if (element_ == layout_.element) {
+        SSPC_RETURN_IF_ERROR(read_vertices(element, max_points, out));
       } else {
-        SSPC_RETURN_IF_ERROR(skip_element(header_.elements[e]));
+        SSPC_RETURN_IF_ERROR(skip_element(element, max_points));
         progress_advance(progress_, reader_.offset() - before);
       }
+      if (item_ < element.count) return Status();  // `max_points` reached: resume here
     }
-    return check_end();
+    SSPC_RETURN_IF_ERROR(check_end());
+    done_ = true;
+    return Status();
   }
+
+  bool done() const override { return done_; }
+  std::size_t consumed() const override { return reader_.offset(); }
 
  private:
   Status item_error(const PlyElement& element, std::uint64_t item, const Status& s) const {
@@ -79,8 +91,10 @@ class BinaryBodyReader {
     return *n;
   }
 
-  Status skip_element(const PlyElement& element) {
+  // Up to `budget` items of an element that is not the vertex element, from item_ on.
+  Status skip_element(const PlyElement& element, std::size_t budget) {
     if (const auto stride = element.fixed_stride()) {
+      // All at once: skipping touches none of its bytes.
       const Status s = reader_.skip_items(element.count, *stride);
       if (!s.ok()) {
         return in_file(s.with_context("element " + quote_token(element.name) + " (" +
@@ -88,13 +102,14 @@ class BinaryBodyReader {
                                       std::to_string(*stride) + " bytes)"),
                        name_);
       }
+      item_ = element.count;
       return Status();
     }
     // Each item holds at least one list count, so a hostile count runs out of bytes within
     // remaining() iterations.
-    for (std::uint64_t i = 0; i < element.count; ++i) {
+    for (std::size_t n = 0; item_ < element.count && n < budget; ++item_, ++n) {
       const Status s = skip_variable_item(element);
-      if (!s.ok()) return item_error(element, i, s);
+      if (!s.ok()) return item_error(element, item_, s);
     }
     return Status();
   }
@@ -136,11 +151,12 @@ class BinaryBodyReader {
     return Status();
   }
 
-  Status read_vertices(PointCloud& cloud) {
-    const PlyElement& vertex = header_.elements[layout_.element];
-    if (const auto stride = vertex.fixed_stride())
-      return read_fixed_vertices(vertex, *stride, cloud);
-    return read_variable_vertices(vertex, cloud);
+  // Up to `budget` vertices from item_ on, appended to `out`.
+  Status read_vertices(const PlyElement& vertex, std::size_t budget, PointCloud& out) {
+    if (const auto stride = vertex.fixed_stride()) {
+      return read_fixed_vertices(vertex, *stride, budget, out);
+    }
+    return read_variable_vertices(vertex, budget, out);
   }
 
   // The three properties feeding slots first..first+2 as fields of a record of `stride` bytes.
@@ -153,9 +169,11 @@ class BinaryBodyReader {
     }
   }
 
-  Status read_fixed_vertices(const PlyElement& vertex, std::size_t stride, PointCloud& cloud) {
-    SSPC_RETURN_IF_ERROR(check_count_fits(vertex, stride));
-    const auto n = static_cast<std::size_t>(vertex.count);  // fits: n * stride <= remaining()
+  Status read_fixed_vertices(const PlyElement& vertex, std::size_t stride, std::size_t budget,
+                             PointCloud& out) {
+    if (item_ == 0) SSPC_RETURN_IF_ERROR(check_count_fits(vertex, stride));
+    // Fits: the vertices left lie in the file, n * stride <= remaining().
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(vertex.count - item_, budget));
     std::vector<std::size_t> offsets(vertex.properties.size());
     for (std::size_t p = 0, off = 0; p < vertex.properties.size(); ++p) {
       offsets[p] = off;
@@ -166,37 +184,45 @@ class BinaryBodyReader {
     if (layout_.normals) fields(kNx, offsets, stride, nrm);
     if (layout_.colours) fields(kRed, offsets, stride, col);
 
-    cloud.positions.resize(n);
-    if (layout_.normals) cloud.normals.resize(n);
-    if (layout_.colours) cloud.colours.resize(n);
+    const std::size_t first = out.size();
+    out.positions.resize(first + n);
+    if (layout_.normals) out.normals.resize(first + n);
+    if (layout_.colours) out.colours.resize(first + n);
+    Vec3f* positions = out.positions.data() + first;
+    Vec3f* normals = layout_.normals ? out.normals.data() + first : nullptr;
+    Rgb8* colours = layout_.colours ? out.colours.data() + first : nullptr;
     const std::byte* block = reader_.current();
     const std::size_t block_offset = reader_.offset();
     // Chunks of a few hundred kilobytes: large enough to amortise scheduling, small enough for
     // the progress line to move and for both cores to get work on small files.
     const std::size_t grain = std::max<std::size_t>(1, (std::size_t{1} << 19) / stride);
     parallel_for_ranges(0, n, grain, [&](std::size_t b, std::size_t e) {
-      decode_vec3(block, pos, endian_, b, e, cloud.positions.data());
-      if (layout_.normals) decode_vec3(block, nrm, endian_, b, e, cloud.normals.data());
-      if (layout_.colours) decode_rgb_channels(block, col, endian_, b, e, cloud.colours.data());
+      decode_vec3(block, pos, endian_, b, e, positions);
+      if (layout_.normals) decode_vec3(block, nrm, endian_, b, e, normals);
+      if (layout_.colours) decode_rgb_channels(block, col, endian_, b, e, colours);
       progress_advance(progress_, (e - b) * stride);
     });
     SSPC_RETURN_IF_ERROR(reader_.skip(n * stride));
+    item_ += n;
 
-    if (const auto bad = first_non_finite_point(cloud)) {
-      return non_finite_error(name_, cloud, *bad,
-                              "byte offset " + std::to_string(block_offset + *bad * stride));
+    if (const auto bad = first_non_finite_point(out, first)) {
+      return non_finite_error(
+          name_, out, *bad, "byte offset " + std::to_string(block_offset + (*bad - first) * stride),
+          points_ - first);
     }
-    if (wide_.wanted()) wide_.add_block(block, pos, endian_, cloud.positions);
+    if (wide_.wanted()) wide_.add_block(block, pos, endian_, std::span(positions, n));
+    points_ += n;
     return Status();
   }
 
   // Vertices with a list property (rare: some tools attach texture coordinates or neighbour
   // lists to vertices). Sequential; each item is bounds-checked as it is read.
-  Status read_variable_vertices(const PlyElement& vertex, PointCloud& cloud) {
-    SSPC_RETURN_IF_ERROR(check_count_fits(vertex, min_item_size(vertex)));
-    cloud.reserve(static_cast<std::size_t>(vertex.count), layout_.normals, layout_.colours);
+  Status read_variable_vertices(const PlyElement& vertex, std::size_t budget, PointCloud& out) {
+    if (item_ == 0) SSPC_RETURN_IF_ERROR(check_count_fits(vertex, min_item_size(vertex)));
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(vertex.count - item_, budget));
+    out.reserve(out.size() + n, layout_.normals, layout_.colours);
     const std::size_t start = reader_.offset();
-    for (std::uint64_t i = 0; i < vertex.count; ++i) {
+    for (std::size_t k = 0; k < n; ++k, ++item_) {
       const std::size_t item_offset = reader_.offset();
       double v[kSlotCount] = {};
       for (std::size_t p = 0; p < vertex.properties.size(); ++p) {
@@ -213,26 +239,27 @@ class BinaryBodyReader {
           }
           s = reader_.skip(scalar_size(prop.type));
         }
-        if (!s.ok()) return item_error(vertex, i, s);
+        if (!s.ok()) return item_error(vertex, item_, s);
       }
-      cloud.positions.emplace_back(narrow_to_float(v[kX]), narrow_to_float(v[kY]),
-                                   narrow_to_float(v[kZ]));
+      out.positions.emplace_back(narrow_to_float(v[kX]), narrow_to_float(v[kY]),
+                                 narrow_to_float(v[kZ]));
       if (layout_.normals) {
-        cloud.normals.emplace_back(narrow_to_float(v[kNx]), narrow_to_float(v[kNy]),
-                                   narrow_to_float(v[kNz]));
+        out.normals.emplace_back(narrow_to_float(v[kNx]), narrow_to_float(v[kNy]),
+                                 narrow_to_float(v[kNz]));
       }
       if (layout_.colours) {
         const auto channel = [&](PlySlot s) {
           return colour_channel(v[s], vertex.properties[*layout_.property[s]].type);
         };
-        cloud.colours.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
+        out.colours.push_back(Rgb8{channel(kRed), channel(kGreen), channel(kBlue)});
       }
-      const std::size_t idx = cloud.size() - 1;
-      if (!cloud.positions[idx].allFinite() ||
-          (layout_.normals && !cloud.normals[idx].allFinite())) {
-        return non_finite_error(name_, cloud, idx, "byte offset " + std::to_string(item_offset));
+      const std::size_t idx = out.size() - 1;
+      if (!out.positions[idx].allFinite() || (layout_.normals && !out.normals[idx].allFinite())) {
+        return non_finite_error(name_, out, idx, "byte offset " + std::to_string(item_offset),
+                                points_ - idx);
       }
-      if (wide_.wanted()) wide_.add(Vec3d(v[kX], v[kY], v[kZ]), cloud.positions[idx]);
+      if (wide_.wanted()) wide_.add(Vec3d(v[kX], v[kY], v[kZ]), out.positions[idx]);
+      ++points_;
     }
     progress_advance(progress_, reader_.offset() - start);
     return Status();
@@ -245,14 +272,21 @@ class BinaryBodyReader {
   WidePositions& wide_;
   Endian endian_;
   ByteReader reader_;
+  std::size_t element_ = 0;  // the element being read
+  std::uint64_t item_ = 0;   // its next item
+  std::size_t points_ = 0;   // vertices read so far, for messages that number them
+  bool started_ = false;
+  bool done_ = false;
 };
 
 }  // namespace
 
-Status read_ply_binary_body(std::span<const std::byte> file, const PlyHeader& header,
-                            const PlyVertexLayout& layout, std::string_view name,
-                            const PlyBodySinks& sinks, PointCloud& cloud) {
-  return BinaryBodyReader(file, header, layout, name, sinks).read(cloud);
+std::unique_ptr<PointReader> make_ply_binary_body(std::span<const std::byte> file,
+                                                  const PlyHeader& header,
+                                                  const PlyVertexLayout& layout,
+                                                  std::string_view name,
+                                                  const PlyBodySinks& sinks) {
+  return std::make_unique<BinaryBodyReader>(file, header, layout, name, sinks);
 }
 
 }  // namespace sspc::io

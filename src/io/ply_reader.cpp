@@ -1,5 +1,11 @@
 // read_ply: the PLY header, the mapping of the vertex element onto the point cloud, then the body
-// in whichever encoding the header names.
+// in whichever encoding the header names, whole or in chunks.
+#include <limits>
+#include <memory>
+#include <optional>
+#include <utility>
+
+#include "core/check.hpp"
 #include "io/ply_body.hpp"
 #include "io/ply_header.hpp"
 #include "io/ply_vertex_layout.hpp"
@@ -33,6 +39,15 @@ void keep_comments(const std::vector<std::string>& comments, CloudMetadata& meta
   }
 }
 
+std::unique_ptr<PointReader> make_body(std::span<const std::byte> data, const PlyHeader& header,
+                                       const PlyVertexLayout& layout, std::string_view name,
+                                       const PlyBodySinks& sinks) {
+  if (header.format == PlyFormat::kAscii) {
+    return make_ply_ascii_body(data, header, layout, name, sinks);
+  }
+  return make_ply_binary_body(data, header, layout, name, sinks);
+}
+
 }  // namespace
 
 StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std::string_view name,
@@ -41,16 +56,50 @@ StatusOr<PointCloud> read_ply_with_options(std::span<const std::byte> data, std:
   SSPC_ASSIGN_OR_RETURN(const PlyVertexLayout layout, make_ply_vertex_layout(header, name));
   WidePositions wide(options, positions_wider_than_float(header, layout));
   PointCloud cloud;
-  const PlyBodySinks sinks{options.progress, &wide};
-  if (header.format == PlyFormat::kAscii) {
-    SSPC_RETURN_IF_ERROR(read_ply_ascii_body(data, header, layout, name, sinks, cloud));
-  } else {
-    SSPC_RETURN_IF_ERROR(read_ply_binary_body(data, header, layout, name, sinks, cloud));
-  }
+  const std::unique_ptr<PointReader> body =
+      make_body(data, header, layout, name, {options.progress, &wide});
+  SSPC_RETURN_IF_ERROR(body->read(std::numeric_limits<std::size_t>::max(), cloud));
+  SSPC_DCHECK(body->done());
   SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
   wide.finish(cloud);
   keep_comments(header.comments, cloud.metadata);
   return cloud;
+}
+
+Status read_ply_chunks(const ChunkedRead& in) {
+  const std::span<const std::byte> data = in.file.bytes();
+  SSPC_ASSIGN_OR_RETURN(const PlyHeader header, parse_ply_header(as_text(data), in.name));
+  SSPC_ASSIGN_OR_RETURN(const PlyVertexLayout layout, make_ply_vertex_layout(header, in.name));
+  std::optional<Vec3d> origin;
+  if (positions_wider_than_float(header, layout)) {
+    // The origin depends on every position: a first pass gathers their range.
+    WidePositions stats(ReadOptions{}, /*stored_wider=*/true);
+    const std::unique_ptr<PointReader> scan =
+        make_body(data, header, layout, in.name, {in.options.progress, &stats});
+    SSPC_ASSIGN_OR_RETURN(const std::size_t n,
+                          run_pass(in, Pass::kScan, *scan, [&](PointCloud&, std::size_t) {
+                            stats.forget_added();
+                            return Status();
+                          }));
+    if (n == 0) return finish_cloud(PointCloud(), in.name);
+    origin = stats.origin();
+  }
+  CloudMetadata metadata;
+  keep_comments(header.comments, metadata);
+  WidePositions wide(ReadOptions{}, /*stored_wider=*/origin.has_value());
+  const std::unique_ptr<PointReader> body =
+      make_body(data, header, layout, in.name, {in.options.progress, &wide});
+  SSPC_ASSIGN_OR_RETURN(const std::size_t n,
+                        run_pass(in, Pass::kRead, *body, [&](PointCloud& chunk, std::size_t) {
+                          if (origin) {
+                            wide.narrow_added(*origin, chunk.positions);
+                            chunk.origin = *origin;
+                          }
+                          chunk.metadata = metadata;
+                          return in.sink(std::move(chunk));
+                        }));
+  if (n == 0) return finish_cloud(PointCloud(), in.name);
+  return Status();
 }
 
 }  // namespace io

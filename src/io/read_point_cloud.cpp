@@ -1,11 +1,13 @@
-// read_point_cloud: maps the file and hands it to the reader its format calls for: the one the
-// caller names, else the one the extension names, else the one the first bytes look like.
+// read_point_cloud and read_point_cloud_chunks: map the file and hand it to the reader its format
+// calls for: the one the caller names, else the one the extension names, else the one the first
+// bytes look like.
 #include <algorithm>
 #include <cctype>
 #include <string>
 #include <utility>
 
 #include "core/mapped_file.hpp"
+#include "io/point_chunks.hpp"
 #include "io/reader_common.hpp"
 
 namespace sspc {
@@ -62,15 +64,44 @@ StatusOr<PointCloud> read_with(PointCloudFormat format, std::span<const std::byt
   return io::read_xyz_with_options(bytes, name, options);
 }
 
+// The caller's format, else the extension's, else the content's.
+PointCloudFormat format_of(const std::filesystem::path& path, const MappedFile& file,
+                           const ReadOptions& options) {
+  PointCloudFormat format = options.format;
+  if (format == PointCloudFormat::kAuto) format = format_from_extension(path);
+  if (format == PointCloudFormat::kAuto) format = sniff_format(io::as_text(file.bytes()));
+  return format;
+}
+
+Status read_chunks_with(PointCloudFormat format, const io::ChunkedRead& in) {
+  switch (format) {
+    case PointCloudFormat::kPly: return io::read_ply_chunks(in);
+    case PointCloudFormat::kLas: return io::read_las_chunks(in);
+    case PointCloudFormat::kXyzRgb: return io::read_xyz_chunks(in, io::XyzSixColumns::kColours);
+    case PointCloudFormat::kXyzN: return io::read_xyz_chunks(in, io::XyzSixColumns::kNormals);
+    case PointCloudFormat::kPcd: {
+      // Read whole: see sspc/io.hpp.
+      progress_begin(in.options.progress, "reading " + in.file.path().filename().string(),
+                     in.file.size(), "bytes");
+      StatusOr<PointCloud> cloud = io::read_pcd_with_options(in.file.bytes(), in.name, in.options);
+      progress_end(in.options.progress);
+      if (!cloud.ok()) return cloud.status();
+      SSPC_RETURN_IF_ERROR(in.file.check_intact());
+      return io::hand_out_in_chunks(std::move(*cloud), in.chunk_points, in.sink);
+    }
+    case PointCloudFormat::kXyz:
+    case PointCloudFormat::kAuto: break;
+  }
+  return io::read_xyz_chunks(in, io::XyzSixColumns::kGuess);
+}
+
 }  // namespace
 
 StatusOr<PointCloud> read_point_cloud(const std::filesystem::path& path,
                                       const ReadOptions& options) {
   SSPC_ASSIGN_OR_RETURN(const MappedFile file, MappedFile::open(path));
   const std::string name = path.string();
-  PointCloudFormat format = options.format;
-  if (format == PointCloudFormat::kAuto) format = format_from_extension(path);
-  if (format == PointCloudFormat::kAuto) format = sniff_format(io::as_text(file.bytes()));
+  const PointCloudFormat format = format_of(path, file, options);
 
   progress_begin(options.progress, "reading " + path.filename().string(), file.size(), "bytes");
   StatusOr<PointCloud> cloud = read_with(format, file.bytes(), name, options);
@@ -92,6 +123,25 @@ StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::stri
   progress_end(options.progress);
   if (!cloud.ok() && options.positions_f64 != nullptr) options.positions_f64->clear();
   return cloud;
+}
+
+Status read_point_cloud_chunks(const std::filesystem::path& path, std::size_t chunk_points,
+                               const std::function<Status(PointCloud&&)>& sink,
+                               const ReadOptions& options) {
+  if (chunk_points == 0) {
+    return invalid_argument(path.string() + ": chunks must hold at least one point");
+  }
+  if (options.positions_f64 != nullptr) {
+    return invalid_argument(path.string() +
+                            ": the positions in double (positions_f64) are not given in chunks");
+  }
+  SSPC_ASSIGN_OR_RETURN(const MappedFile file, MappedFile::open(path));
+  const std::string name = path.string();
+  Status status = read_chunks_with(format_of(path, file, options),
+                                   io::ChunkedRead{file, name, chunk_points, sink, options});
+  // As in read_point_cloud: a file that shrank was read partly as zeros.
+  if (Status intact = file.check_intact(); !intact.ok()) status = std::move(intact);
+  return status;
 }
 
 }  // namespace sspc

@@ -29,11 +29,12 @@ Status in_file(const Status& status, std::string_view name) {
   return status.with_context(std::string(name));
 }
 
-std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud) {
+std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud, std::size_t begin) {
   constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
   std::atomic<std::size_t> first{kNone};
   const bool normals = cloud.normals.size() == cloud.positions.size();
-  parallel_for_ranges(0, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
+  const std::size_t from = std::min(begin, cloud.size());
+  parallel_for_ranges(from, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e && i < first.load(std::memory_order_relaxed); ++i) {
       if (!cloud.positions[i].allFinite() || (normals && !cloud.normals[i].allFinite())) {
         // Keep the smallest index whichever range finds one first.
@@ -63,9 +64,9 @@ std::string format_vec(const Vec3f& v) {
 }  // namespace
 
 Status non_finite_error(std::string_view name, const PointCloud& cloud, std::size_t index,
-                        std::string_view where) {
+                        std::string_view where, std::size_t first) {
   const bool position_bad = !cloud.positions[index].allFinite();
-  const std::string what = "point " + std::to_string(index) + " has a non-finite " +
+  const std::string what = "point " + std::to_string(first + index) + " has a non-finite " +
                            (position_bad ? "coordinate " + format_vec(cloud.positions[index])
                                          : "normal " + format_vec(cloud.normals[index]));
   return invalid_argument(what).with_context(std::string(where)).with_context(std::string(name));

@@ -28,14 +28,16 @@ Status error_in(StatusCode code, std::string_view name, std::string_view what);
 // Prefixes a status from a lower layer (the byte reader, the LZF decoder) with the file name.
 Status in_file(const Status& status, std::string_view name);
 
-// The index of the first point whose position or normal has a NaN or infinite component.
-// Runs in parallel; the answer does not depend on the thread count.
-std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud);
+// The index of the first point from `begin` on whose position or normal has a NaN or infinite
+// component. Runs in parallel; the answer does not depend on the thread count.
+std::optional<std::size_t> first_non_finite_point(const PointCloud& cloud, std::size_t begin = 0);
 
 // kInvalidArgument naming the file, the point, its values and, when not empty, `where` ("line 7",
-// "byte offset 96") so that the user can find it.
+// "byte offset 96") so that the user can find it. `first` is the number in the file of the
+// cloud's point 0 when the cloud holds a chunk of it (read_point_cloud_chunks), so that the
+// message numbers points as the whole file does.
 Status non_finite_error(std::string_view name, const PointCloud& cloud, std::size_t index,
-                        std::string_view where);
+                        std::string_view where, std::size_t first = 0);
 
 // The checks that end every reader: at least one point (kInvalidArgument otherwise), attribute
 // arrays as long as the positions. Finite values are checked by each reader, which knows where

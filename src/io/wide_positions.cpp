@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <mutex>
 
+#include "core/check.hpp"
 #include "core/parallel.hpp"
 #include "io/scalar_type.hpp"
 
@@ -30,6 +31,16 @@ std::string format(double v, int digits) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;
+}
+
+// Each position again from its stored value, relative to the origin.
+void narrow_from(const std::vector<Vec3d>& stored, const Vec3d& origin,
+                 std::span<Vec3f> positions) {
+  parallel_for_ranges(0, positions.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      for (int k = 0; k < 3; ++k) positions[i][k] = narrow_to_float(stored[i][k] - origin[k]);
+    }
+  });
 }
 
 }  // namespace
@@ -88,7 +99,9 @@ WidePositions::WidePositions(const ReadOptions& options, bool stored_wider)
 
 void WidePositions::add_block(const std::byte* block, const StridedField (&fields)[3],
                               Endian endian, std::span<const Vec3f> held) {
-  copy_->resize(held.size());
+  const std::size_t first = copy_->size();
+  copy_->resize(first + held.size());
+  Vec3d* copy = copy_->data() + first;
   std::mutex merge_mutex;
   parallel_for_ranges(0, held.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
     CoordinateStats part;
@@ -99,7 +112,7 @@ void WidePositions::add_block(const std::byte* block, const StridedField (&field
             load_as_double(block + fields[k].offset + i * fields[k].stride, fields[k].type, endian);
       }
       part.add(stored, held[i]);
-      (*copy_)[i] = stored;
+      copy[i] = stored;
     }
     const std::lock_guard lock(merge_mutex);
     stats_.merge(part);
@@ -113,22 +126,30 @@ void WidePositions::finish(PointCloud& cloud) {
     for (std::size_t i = 0; i < cloud.size(); ++i) (*copy_)[i] = cloud.positions[i].cast<double>();
     return;
   }
-  if (copy_->size() != cloud.size() || !float32_precision_warning(stats_, "")) return;
+  if (copy_->size() != cloud.size()) return;
+  const std::optional<Vec3d> chosen = origin();
+  if (!chosen) return;
+  cloud.origin = *chosen;
+  narrow_from(*copy_, *chosen, cloud.positions);
+}
+
+std::optional<Vec3d> WidePositions::origin() const {
+  if (!stored_wider_ || !float32_precision_warning(stats_, "")) return std::nullopt;
   const Vec3d origin = round_origin(stats_);
   // Rounding the centre moves the local values by up to half a power of ten: near float's
   // range that could take them past it, and the cloud is better kept as it was read.
   constexpr double kMax = static_cast<double>(std::numeric_limits<float>::max());
   if (!((stats_.max - origin).cwiseAbs().maxCoeff() < kMax &&
         (stats_.min - origin).cwiseAbs().maxCoeff() < kMax && origin.allFinite())) {
-    return;
+    return std::nullopt;
   }
-  cloud.origin = origin;
-  const std::vector<Vec3d>& stored = *copy_;
-  parallel_for_ranges(0, cloud.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      for (int k = 0; k < 3; ++k) cloud.positions[i][k] = narrow_to_float(stored[i][k] - origin[k]);
-    }
-  });
+  return origin;
+}
+
+void WidePositions::narrow_added(const Vec3d& origin, std::span<Vec3f> positions) {
+  SSPC_DCHECK(copy_->size() == positions.size());
+  narrow_from(*copy_, origin, positions);
+  copy_->clear();
 }
 
 }  // namespace sspc::io

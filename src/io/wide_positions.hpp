@@ -83,6 +83,17 @@ class WidePositions {
   // calls for one, and completes the copy for float32 files.
   void finish(PointCloud& cloud);
 
+  // The origin the rule chooses from every position added so far; nullopt when the positions
+  // stay as read (float32 holds the cloud's detail, or the file stores nothing wider).
+  std::optional<Vec3d> origin() const;
+
+  // For a file read in chunks, whose origin a first pass chose. Narrows `positions`, the points
+  // added since the last call, as stored − origin (exactly as finish() narrows a whole cloud),
+  // then forgets their stored values.
+  void narrow_added(const Vec3d& origin, std::span<Vec3f> positions);
+  // Forgets the stored values added so far and keeps what the origin depends on (a first pass).
+  void forget_added() { copy_->clear(); }
+
  private:
   bool stored_wider_;
   std::vector<Vec3d> own_copy_;

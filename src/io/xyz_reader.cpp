@@ -17,8 +17,13 @@
 // then agree with the number of points (sspc reads single-scan PTS files only).
 #include <algorithm>
 #include <array>
+#include <limits>
+#include <optional>
 #include <string>
+#include <utility>
 
+#include "core/check.hpp"
+#include "io/point_chunks.hpp"
 #include "io/reader_common.hpp"
 #include "io/text_scanner.hpp"
 #include "io/wide_positions.hpp"
@@ -61,64 +66,71 @@ std::string_view without_bom(std::string_view text) {
   return text;
 }
 
-class XyzReader {
+// What the trailing values of six-column lines have looked like so far.
+struct SixColumnEvidence {
+  bool colours_possible = true;  // every trailing value an integer 0..255
+  bool above_one = false;        // some trailing value above 1
+};
+
+// The lines of an XYZ file as a PointReader (io/point_chunks.hpp). Six columns are read as
+// normals; six_columns_to_colours() turns them into colours once the whole file has been seen.
+class XyzReader final : public PointReader {
  public:
-  XyzReader(std::span<const std::byte> data, std::string_view name, const ReadOptions& options,
-            XyzSixColumns six)
-      : six_(six),
-        text_(without_bom(as_text(data))),
+  // `wide` receives each position as written when wide.wanted().
+  XyzReader(std::span<const std::byte> data, std::string_view name, Progress* progress,
+            WidePositions& wide)
+      : text_(without_bom(as_text(data))),
         name_(name),
-        progress_(options.progress),
-        wide_(options, /*stored_wider=*/true),  // decimal text holds any precision
+        progress_(progress),
+        wide_(wide),
         lines_(text_),
         bom_(data.size() - text_.size()) {}
 
-  StatusOr<PointCloud> read() {
-    std::optional<std::uint64_t> declared;
-    std::size_t declared_line = 0;
+  Status read(std::size_t max_points, PointCloud& out) override {
+    if (columns_) reserve(max_points, out);
     std::string_view line;
-    bool first = true;
-    while (lines_.next(line)) {
+    for (std::size_t n = 0; n < max_points;) {
+      if (!lines_.next(line)) return finish_text();
       if (is_blank(line) || is_comment(line)) continue;
       std::array<std::string_view, 10> tok;
-      const std::size_t n = split(line, tok);
-      if (first) {
-        first = false;
-        if (n == 1 && is_plain_unsigned(tok[0])) {
+      const std::size_t columns = split(line, tok);
+      if (first_) {
+        first_ = false;
+        if (columns == 1 && is_plain_unsigned(tok[0])) {
           std::uint64_t count = 0;
           if (!parse_number(tok[0], count)) return error("the point count is out of range");
-          declared = count;
-          declared_line = lines_.line_number();
+          declared_ = count;
+          declared_line_ = lines_.line_number();
           continue;
         }
       }
       if (!columns_) {
-        columns_ = columns_for(n);
+        columns_ = columns_for(columns);
         if (!columns_) {
-          return error(std::to_string(n) +
+          return error(std::to_string(columns) +
                        " columns (expected 3 x y z, 4 x y z i, 6 x y z nx ny nz or x y z r g b, "
                        "7 x y z i r g b, or 9 x y z nx ny nz r g b)");
         }
-        column_count_ = n;
-        prepare(declared);
-      } else if (n != column_count_) {
-        return error(std::to_string(n) + " columns where the first data line (line " +
+        column_count_ = columns;
+        first_line_ = lines_.line_number();
+        reserve(max_points - n, out);
+      } else if (columns != column_count_) {
+        return error(std::to_string(columns) + " columns where the first data line (line " +
                      std::to_string(first_line_) + ") has " + std::to_string(column_count_));
       }
-      SSPC_RETURN_IF_ERROR(parse_point(tok));
+      SSPC_RETURN_IF_ERROR(parse_point(tok, out));
+      ++n;
       report_progress();
     }
-    if (declared && *declared != cloud_.size()) {
-      return error_at_line(StatusCode::kParseError, name_, declared_line,
-                           "the file declares " + std::to_string(*declared) + " points but holds " +
-                               std::to_string(cloud_.size()));
-    }
-    if (columns_ == XyzColumns::kXyzNormalsOrRgb) SSPC_RETURN_IF_ERROR(six_columns_to_colours());
-    progress_advance(progress_, bom_ + text_.size() - reported_);
-    SSPC_RETURN_IF_ERROR(finish_cloud(cloud_, name_));
-    wide_.finish(cloud_);
-    return std::move(cloud_);
+    return Status();
   }
+
+  bool done() const override { return done_; }
+  std::size_t consumed() const override { return bom_ + lines_.position(); }
+
+  // Whether the file's lines have six columns, whose meaning six_columns_to_colours() settles.
+  bool six_columns() const { return columns_ == XyzColumns::kXyzNormalsOrRgb; }
+  const SixColumnEvidence& evidence() const { return evidence_; }
 
  private:
   template <std::size_t N>
@@ -137,17 +149,29 @@ class XyzReader {
     return error_at_line(StatusCode::kParseError, name_, lines_.line_number(), what);
   }
 
-  void prepare(std::optional<std::uint64_t> declared) {
-    first_line_ = lines_.line_number();
+  // The end of the text: a PTS count must match the points.
+  Status finish_text() {
+    if (declared_ && *declared_ != points_) {
+      return error_at_line(StatusCode::kParseError, name_, declared_line_,
+                           "the file declares " + std::to_string(*declared_) +
+                               " points but holds " + std::to_string(points_));
+    }
+    progress_advance(progress_, bom_ + text_.size() - reported_);
+    reported_ = bom_ + text_.size();
+    done_ = true;
+    return Status();
+  }
+
+  void reserve(std::size_t max_points, PointCloud& out) const {
     // The shortest point line ("0 0 0\n") has 6 bytes: the text bounds the reserve whatever a
     // PTS count claims.
     std::size_t bound = (text_.size() - std::min(text_.size(), lines_.position())) / 6 + 1;
-    if (declared) bound = std::min<std::size_t>(bound, static_cast<std::size_t>(*declared));
+    if (declared_) bound = std::min<std::size_t>(bound, static_cast<std::size_t>(*declared_));
     const bool normals =
         *columns_ == XyzColumns::kXyzNormalsOrRgb || *columns_ == XyzColumns::kXyzNormalsRgb;
     const bool colours =
         *columns_ == XyzColumns::kXyzIRgb || *columns_ == XyzColumns::kXyzNormalsRgb;
-    cloud_.reserve(bound, normals, colours);
+    out.reserve(out.size() + std::min(bound, max_points), normals, colours);
   }
 
   Status not_a_number(std::size_t column, std::string_view what, std::string_view tok) const {
@@ -165,7 +189,8 @@ class XyzReader {
     return Status();
   }
 
-  Status parse_colours(const std::array<std::string_view, 10>& tok, std::size_t first) {
+  Status parse_colours(const std::array<std::string_view, 10>& tok, std::size_t first,
+                       PointCloud& out) const {
     std::uint8_t c[3];
     for (std::size_t k = 0; k < 3; ++k) {
       if (!parse_color_token(tok[first + k], c[k])) {
@@ -173,16 +198,16 @@ class XyzReader {
                      quote_token(tok[first + k]) + " is not an integer from 0 to 255");
       }
     }
-    cloud_.colours.push_back(Rgb8{c[0], c[1], c[2]});
+    out.colours.push_back(Rgb8{c[0], c[1], c[2]});
     return Status();
   }
 
   // The position, also in double when the file's own values are wanted.
-  Status parse_position(const std::array<std::string_view, 10>& tok) {
+  Status parse_position(const std::array<std::string_view, 10>& tok, PointCloud& out) {
     if (!wide_.wanted()) {
       Vec3f p;
       SSPC_RETURN_IF_ERROR(parse_floats(tok, 0, p, "position"));
-      cloud_.positions.push_back(p);
+      out.positions.push_back(p);
       return Status();
     }
     Vec3f p;
@@ -193,85 +218,49 @@ class XyzReader {
         return not_a_number(k, "position", tok[k]);
       }
     }
-    cloud_.positions.push_back(p);
+    out.positions.push_back(p);
     if (p.allFinite()) wide_.add(stored, p);  // a non-finite one is refused below
     return Status();
   }
 
-  Status parse_point(const std::array<std::string_view, 10>& tok) {
-    SSPC_RETURN_IF_ERROR(parse_position(tok));
+  Status parse_point(const std::array<std::string_view, 10>& tok, PointCloud& out) {
+    SSPC_RETURN_IF_ERROR(parse_position(tok, out));
     switch (*columns_) {
       case XyzColumns::kXyz:
       case XyzColumns::kXyzI: break;  // the intensity is not part of the model
       case XyzColumns::kXyzNormalsOrRgb: {
         Vec3f v;
         SSPC_RETURN_IF_ERROR(parse_floats(tok, 3, v, "normal or colour"));
-        cloud_.normals.push_back(v);
+        out.normals.push_back(v);
         for (std::size_t k = 3; k < 6; ++k) {
           std::uint8_t c = 0;
           if (!parse_color_token(tok[k], c)) {
-            colours_possible_ = false;
+            evidence_.colours_possible = false;
           } else if (c > 1) {
-            above_one_ = true;
+            evidence_.above_one = true;
           }
         }
         break;
       }
-      case XyzColumns::kXyzIRgb: SSPC_RETURN_IF_ERROR(parse_colours(tok, 4)); break;
+      case XyzColumns::kXyzIRgb: SSPC_RETURN_IF_ERROR(parse_colours(tok, 4, out)); break;
       case XyzColumns::kXyzNormalsRgb: {
         Vec3f v;
         SSPC_RETURN_IF_ERROR(parse_floats(tok, 3, v, "normal"));
-        cloud_.normals.push_back(v);
-        SSPC_RETURN_IF_ERROR(parse_colours(tok, 6));
+        out.normals.push_back(v);
+        SSPC_RETURN_IF_ERROR(parse_colours(tok, 6, out));
         break;
       }
     }
-    const std::size_t i = cloud_.size() - 1;
+    const std::size_t i = out.size() - 1;
     // Six columns may yet turn out to be colours, which are finite by construction.
-    const bool check_normal = cloud_.has_normals() && *columns_ != XyzColumns::kXyzNormalsOrRgb;
-    if (!cloud_.positions[i].allFinite() || (check_normal && !cloud_.normals[i].allFinite())) {
-      return non_finite_error(name_, cloud_, i, "line " + std::to_string(lines_.line_number()));
+    const bool check_normal = out.has_normals() && *columns_ != XyzColumns::kXyzNormalsOrRgb;
+    const bool bad_normal = (check_normal || (six_columns() && !evidence_.colours_possible)) &&
+                            !out.normals[i].allFinite();
+    if (!out.positions[i].allFinite() || bad_normal) {
+      return non_finite_error(name_, out, i, "line " + std::to_string(lines_.line_number()),
+                              points_ - i);
     }
-    if (*columns_ == XyzColumns::kXyzNormalsOrRgb && !colours_possible_ &&
-        !cloud_.normals[i].allFinite()) {
-      return non_finite_error(name_, cloud_, i, "line " + std::to_string(lines_.line_number()));
-    }
-    return Status();
-  }
-
-  // The six-column rule of the file comment, applied once the whole file has been seen.
-  Status six_columns_to_colours() {
-    if (six_ == XyzSixColumns::kNormals) return Status();
-    if (six_ == XyzSixColumns::kColours && !(colours_possible_ && above_one_)) {
-      return unit_colours();
-    }
-    if (!colours_possible_ || !above_one_) return Status();
-    cloud_.colours.resize(cloud_.size());
-    for (std::size_t i = 0; i < cloud_.size(); ++i) {
-      const Vec3f& v = cloud_.normals[i];
-      cloud_.colours[i] = Rgb8{static_cast<std::uint8_t>(v.x()), static_cast<std::uint8_t>(v.y()),
-                              static_cast<std::uint8_t>(v.z())};
-    }
-    cloud_.normals = {};
-    return Status();
-  }
-
-  // Open3D's colours: reals from 0 to 1.
-  Status unit_colours() {
-    cloud_.colours.resize(cloud_.size());
-    for (std::size_t i = 0; i < cloud_.size(); ++i) {
-      const Vec3f& v = cloud_.normals[i];
-      if (!((v.array() >= 0).all() && (v.array() <= 1).all())) {
-        return error_in(StatusCode::kParseError, name_,
-                        "point " + std::to_string(i) +
-                            ": colours of an .xyzrgb file are all integers from 0 to 255 or all "
-                            "reals from 0 to 1, and this one is neither");
-      }
-      const Vec3f c = (v * 255.0f).array().round();
-      cloud_.colours[i] = Rgb8{static_cast<std::uint8_t>(c.x()), static_cast<std::uint8_t>(c.y()),
-                              static_cast<std::uint8_t>(c.z())};
-    }
-    cloud_.normals = {};
+    ++points_;
     return Status();
   }
 
@@ -283,32 +272,117 @@ class XyzReader {
     }
   }
 
-  XyzSixColumns six_;
   std::string_view text_;
   std::string_view name_;
   Progress* progress_;
-  WidePositions wide_;
+  WidePositions& wide_;
   LineScanner lines_;
-  PointCloud cloud_;
+  std::size_t bom_;
   std::optional<XyzColumns> columns_;
   std::size_t column_count_ = 0;
   std::size_t first_line_ = 0;
-  bool colours_possible_ = true;  // six columns: every trailing value so far an integer 0..255
-  bool above_one_ = false;       // six columns: some trailing value above 1
-  std::size_t bom_;
+  bool first_ = true;  // no data line or count line seen yet
+  std::optional<std::uint64_t> declared_;
+  std::size_t declared_line_ = 0;
+  SixColumnEvidence evidence_;
+  std::size_t points_ = 0;
   std::size_t reported_ = 0;
+  bool done_ = false;
 };
+
+// Open3D's colours: reals from 0 to 1. `first`: the number in the file of the cloud's point 0.
+Status unit_colours(PointCloud& cloud, std::size_t first, std::string_view name) {
+  cloud.colours.resize(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3f& v = cloud.normals[i];
+    if (!((v.array() >= 0).all() && (v.array() <= 1).all())) {
+      return error_in(StatusCode::kParseError, name,
+                      "point " + std::to_string(first + i) +
+                          ": colours of an .xyzrgb file are all integers from 0 to 255 or all "
+                          "reals from 0 to 1, and this one is neither");
+    }
+    const Vec3f c = (v * 255.0f).array().round();
+    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(c.x()), static_cast<std::uint8_t>(c.y()),
+                            static_cast<std::uint8_t>(c.z())};
+  }
+  cloud.normals = {};
+  return Status();
+}
+
+// The six-column rule of the file comment, with the evidence of the whole file, applied to the
+// whole cloud or to a chunk of it whose point 0 is point `first` of the file.
+Status six_columns_to_colours(XyzSixColumns six, const SixColumnEvidence& evidence,
+                              PointCloud& cloud, std::size_t first, std::string_view name) {
+  if (six == XyzSixColumns::kNormals) return Status();
+  const bool integer_colours = evidence.colours_possible && evidence.above_one;
+  if (six == XyzSixColumns::kColours && !integer_colours) return unit_colours(cloud, first, name);
+  if (!integer_colours) return Status();
+  cloud.colours.resize(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3f& v = cloud.normals[i];
+    cloud.colours[i] = Rgb8{static_cast<std::uint8_t>(v.x()), static_cast<std::uint8_t>(v.y()),
+                            static_cast<std::uint8_t>(v.z())};
+  }
+  cloud.normals = {};
+  return Status();
+}
+
+StatusOr<PointCloud> read_whole(std::span<const std::byte> data, std::string_view name,
+                                const ReadOptions& options, XyzSixColumns six) {
+  WidePositions wide(options, /*stored_wider=*/true);  // decimal text holds any precision
+  XyzReader reader(data, name, options.progress, wide);
+  PointCloud cloud;
+  SSPC_RETURN_IF_ERROR(reader.read(std::numeric_limits<std::size_t>::max(), cloud));
+  SSPC_DCHECK(reader.done());
+  if (reader.six_columns()) {
+    SSPC_RETURN_IF_ERROR(six_columns_to_colours(six, reader.evidence(), cloud, 0, name));
+  }
+  SSPC_RETURN_IF_ERROR(finish_cloud(cloud, name));
+  wide.finish(cloud);
+  return cloud;
+}
 
 }  // namespace
 
 StatusOr<PointCloud> read_xyz_with_options(std::span<const std::byte> data, std::string_view name,
                                            const ReadOptions& options) {
-  return XyzReader(data, name, options, XyzSixColumns::kGuess).read();
+  return read_whole(data, name, options, XyzSixColumns::kGuess);
 }
 
 StatusOr<PointCloud> read_xyz_columns(std::span<const std::byte> data, std::string_view name,
                                       const ReadOptions& options, XyzSixColumns six) {
-  return XyzReader(data, name, options, six).read();
+  return read_whole(data, name, options, six);
+}
+
+Status read_xyz_chunks(const ChunkedRead& in, XyzSixColumns six) {
+  const std::span<const std::byte> data = in.file.bytes();
+  // The origin depends on every position, what six columns hold on every line, and a PTS count
+  // must match the points: a first pass gathers them and finds every parse error.
+  WidePositions stats(ReadOptions{}, /*stored_wider=*/true);
+  XyzReader scan(data, in.name, in.options.progress, stats);
+  SSPC_ASSIGN_OR_RETURN(const std::size_t points,
+                        run_pass(in, Pass::kScan, scan, [&](PointCloud&, std::size_t) {
+                          stats.forget_added();
+                          return Status();
+                        }));
+  if (points == 0) return finish_cloud(PointCloud(), in.name);
+  const std::optional<Vec3d> origin = stats.origin();
+
+  WidePositions wide(ReadOptions{}, /*stored_wider=*/origin.has_value());
+  XyzReader reader(data, in.name, in.options.progress, wide);
+  return run_pass(in, Pass::kRead, reader,
+                  [&](PointCloud& chunk, std::size_t first) {
+                    if (scan.six_columns()) {
+                      SSPC_RETURN_IF_ERROR(
+                          six_columns_to_colours(six, scan.evidence(), chunk, first, in.name));
+                    }
+                    if (origin) {
+                      wide.narrow_added(*origin, chunk.positions);
+                      chunk.origin = *origin;
+                    }
+                    return in.sink(std::move(chunk));
+                  })
+      .status();
 }
 
 }  // namespace io
