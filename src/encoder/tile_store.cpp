@@ -162,23 +162,6 @@ class MemoryStore final : public TileStore {
   Columns columns_;
 };
 
-// Until the chunked readers land: the whole cloud read, then handed out in chunks.
-Status read_chunks(const std::filesystem::path& path, std::size_t chunk_points,
-                   const std::function<Status(PointCloud&&)>& sink, const ReadOptions& options) {
-  SSPC_ASSIGN_OR_RETURN(PointCloud cloud, read_point_cloud(path, options));
-  const Columns all{cloud.has_normals(), channels_present(cloud)};
-  for (std::size_t first = 0; first < cloud.size(); first += chunk_points) {
-    PointCloud chunk;
-    chunk.origin = cloud.origin;
-    chunk.metadata = cloud.metadata;
-    const std::size_t last = std::min(cloud.size(), first + chunk_points);
-    all.reserve(chunk, last - first);
-    for (std::size_t i = first; i < last; ++i) all.copy(chunk, cloud, i);
-    SSPC_RETURN_IF_ERROR(sink(std::move(chunk)));
-  }
-  return Status();
-}
-
 class SpillStore final : public TileStore {
  public:
   Status build(const std::filesystem::path& input, const ReadOptions& read, std::uint64_t tile_points,
@@ -208,11 +191,11 @@ class SpillStore final : public TileStore {
       }
       return Status();
     };
-    SSPC_RETURN_IF_ERROR(read_chunks(input, chunk_points, learn, read));
+    SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, learn, read));
     for (const std::string& field : dropped) input_.dropped += (input_.dropped.empty() ? "" : ", ") + field;
     // Pass 2: the counts, then the plan.
     TilePlanner planner(input_.bounds);
-    SSPC_RETURN_IF_ERROR(read_chunks(input, chunk_points, [&](PointCloud&& chunk) -> Status {
+    SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, [&](PointCloud&& chunk) -> Status {
       planner.add(chunk.positions);
       return Status();
     }, read));
@@ -260,7 +243,7 @@ class SpillStore final : public TileStore {
       }
       return Status();
     };
-    Status spilled = read_chunks(input, chunk_points, spill, read);
+    Status spilled = read_point_cloud_chunks(input, chunk_points, spill, read);
     for (std::size_t t = 0; t < plan_.size() && spilled.ok(); ++t) spilled = flush(t);
     for (std::size_t t = 0; t < plan_.size() && spilled.ok(); ++t) {
       if (handles[t] != nullptr && std::fclose(handles[t]) != 0) {
