@@ -7,13 +7,15 @@
 #  2. Generated clouds of each size in SIZES (scripts/make_large_cloud.py: jittered, turned,
 #     thinned copies of autzen on a grid, binary PLY) encoded under --memory-limit: the same
 #     figures, so that their growth with size shows (10M against 100M).
-#  3. autzen under --memory-limit on a local Dask cluster of 1, 2 and 4 worker processes
-#     (python3 -m sspc.distributed): wall seconds, the speed-up over 1 worker, and whether the
-#     file is byte for byte the local encode's.
+#  3. autzen in tiles of DASK_TILE_POINTS on a local Dask cluster of 1, 2 and 4 worker
+#     processes (python3 -m sspc.distributed, the input read in passes): wall seconds, the
+#     speed-up over 1 worker, and whether the file is byte for byte the local encode's with the
+#     same tiles. Tiles smaller than the limit allows, so that two workers have enough tiles to
+#     share evenly.
 # Writes docs/results/scale_bench.csv and its table in docs/RESULTS.md ("Scale").
 #
 # Usage: scripts/bench_scale.sh [DATA_DIR]     (default ../shared/data)
-#   SIZES="10M 100M"   LIMIT=2G   LEVEL=5   WORKERS="1 2 4"
+#   SIZES="10M 100M"   LIMIT=2G   LEVEL=5   WORKERS="1 2 4"   DASK_TILE_POINTS=1000000
 #   WORK=/tmp/sspc_bench_scale (generated clouds are kept there between runs; a size whose cloud
 #   and spill would not fit the free disk is skipped and named)
 # Installs what it needs (a release build with the Python module, Debian's time, python3-numpy,
@@ -25,6 +27,7 @@ SIZES="${SIZES:-10M 100M}"
 LIMIT="${LIMIT:-2G}"
 LEVEL="${LEVEL:-5}"
 WORKERS="${WORKERS:-1 2 4}"
+DASK_TILE_POINTS="${DASK_TILE_POINTS:-1000000}"
 WORK="${WORK:-/tmp/sspc_bench_scale}"
 if [ ! -f "$data/autzen.ply" ]; then
   echo "bench_scale: no $data/autzen.ply; nothing to measure" >&2
@@ -96,12 +99,17 @@ for size in $SIZES; do
   row "memory-limit $LIMIT" "generated $size" "$points" "$(field "$WORK/large.json" tiles)" 0 "$WORK/large.json" "" ""
 done
 
+say "== autzen in tiles of $DASK_TILE_POINTS, here"
+timed "$sspc" --quiet encode "$autzen" "$WORK/tiles.sspc" -l "$LEVEL" --memory-limit "$LIMIT" \
+  --tile-points "$DASK_TILE_POINTS" --force --json > "$WORK/tiles.json"
+row "tile-points $DASK_TILE_POINTS" autzen "$n_autzen" "$(field "$WORK/tiles.json" tiles)" 0 "$WORK/tiles.json" \
+  "$(psnr "$autzen" "$WORK/tiles.sspc")" ""
 for workers in $WORKERS; do
   say "== autzen on Dask, $workers workers"
   timed "$py" -m sspc.distributed encode "$autzen" "$WORK/dask.sspc" -l "$LEVEL" --memory-limit "$LIMIT" \
-    --workers "$workers" --json > "$WORK/dask.json"
+    --tile-points "$DASK_TILE_POINTS" --workers "$workers" --json > "$WORK/dask.json"
   same=no
-  if cmp -s "$WORK/dask.sspc" "$WORK/limited.sspc"; then same=yes; fi
+  if cmp -s "$WORK/dask.sspc" "$WORK/tiles.sspc"; then same=yes; fi
   row dask autzen "$n_autzen" "$(field "$WORK/dask.json" tiles)" "$workers" "$WORK/dask.json" "" "$same"
 done
 mv "$csv.tmp" "$csv"
