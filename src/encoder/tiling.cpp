@@ -31,50 +31,72 @@ void TilePlanner::add(std::span<const Vec3f> points) {
 
 namespace {
 
+// Cells [lo, hi) of the grid along each axis.
+struct Range {
+  std::array<int, 3> lo{}, hi{};
+};
+
 struct Splitter {
   TilePlan& plan;
   std::uint64_t max_points;
-  std::vector<std::vector<std::uint64_t>> levels;  // levels[d]: counts of the depth-d cells
+  int side = 0;
+  std::vector<std::uint64_t> sums;  // summed-volume table: (side + 1)³ prefix sums of the counts
 
-  std::size_t index(int d, const std::array<int, 3>& i) const {
-    return (((static_cast<std::size_t>(i[2]) << d) | static_cast<std::size_t>(i[1])) << d) |
-           static_cast<std::size_t>(i[0]);
+  std::size_t at(int x, int y, int z) const {
+    const auto n = static_cast<std::size_t>(side) + 1;
+    return (static_cast<std::size_t>(z) * n + static_cast<std::size_t>(y)) * n + static_cast<std::size_t>(x);
   }
-
-  Box3f box(int d, const std::array<int, 3>& i) const {
+  std::uint64_t count(const Range& r) const {
+    const auto& [x0, y0, z0] = r.lo;
+    const auto& [x1, y1, z1] = r.hi;
+    return sums[at(x1, y1, z1)] - sums[at(x0, y1, z1)] - sums[at(x1, y0, z1)] - sums[at(x1, y1, z0)] +
+           sums[at(x0, y0, z1)] + sums[at(x0, y1, z0)] + sums[at(x1, y0, z0)] - sums[at(x0, y0, z0)];
+  }
+  Box3f box(const Range& r) const {
     Vec3f lo, hi;
-    const double n = std::ldexp(1.0, d);
     for (std::size_t a = 0; a < 3; ++a) {
       const auto axis = static_cast<Eigen::Index>(a);
       const double min = plan.bounds.min()[axis], extent = double{plan.bounds.max()[axis]} - min;
-      lo[axis] = static_cast<float>(min + extent * (i[a] / n));
-      hi[axis] = i[a] + 1 == static_cast<int>(n) ? plan.bounds.max()[axis]
-                                                 : static_cast<float>(min + extent * ((i[a] + 1) / n));
+      lo[axis] = static_cast<float>(min + extent * r.lo[a] / side);
+      hi[axis] = r.hi[a] == side ? plan.bounds.max()[axis] : static_cast<float>(min + extent * r.hi[a] / side);
     }
     return Box3f(lo, hi);
   }
 
-  void split(int d, const std::array<int, 3>& i) {
-    const std::uint64_t count = levels[static_cast<std::size_t>(d)][index(d, i)];
-    if (count == 0) return;
-    if (count <= max_points || d == plan.depth) {
+  void split(const Range& r) {
+    const std::uint64_t n = count(r);
+    if (n == 0) return;
+    // The axis to halve: the longest in the world of those wider than one cell.
+    int axis = -1;
+    double longest = 0;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const auto e = static_cast<Eigen::Index>(a);
+      const double extent =
+          (double{plan.bounds.max()[e]} - double{plan.bounds.min()[e]}) * (r.hi[a] - r.lo[a]);
+      if (r.hi[a] - r.lo[a] > 1 && (axis < 0 || extent > longest)) {
+        axis = static_cast<int>(a);
+        longest = extent;
+      }
+    }
+    if (n <= max_points || axis < 0) {
       const auto tile = static_cast<std::uint32_t>(plan.boxes.size());
-      plan.boxes.push_back(box(d, i));
-      plan.points.push_back(count);
-      const int shift = plan.depth - d, side = 1 << shift;
-      for (int z = 0; z < side; ++z) {
-        for (int y = 0; y < side; ++y) {
-          for (int x = 0; x < side; ++x) {
-            const std::array<int, 3> cell{(i[0] << shift) + x, (i[1] << shift) + y, (i[2] << shift) + z};
-            plan.tile_of_cell[index(plan.depth, cell)] = tile;
+      plan.boxes.push_back(box(r));
+      plan.points.push_back(n);
+      for (int z = r.lo[2]; z < r.hi[2]; ++z) {
+        for (int y = r.lo[1]; y < r.hi[1]; ++y) {
+          for (int x = r.lo[0]; x < r.hi[0]; ++x) {
+            plan.tile_of_cell[(((static_cast<std::size_t>(z) << plan.depth) | static_cast<std::size_t>(y)) << plan.depth) |
+                              static_cast<std::size_t>(x)] = tile;
           }
         }
       }
       return;
     }
-    for (int octant = 0; octant < 8; ++octant) {
-      split(d + 1, {2 * i[0] + (octant & 1), 2 * i[1] + ((octant >> 1) & 1), 2 * i[2] + ((octant >> 2) & 1)});
-    }
+    const auto a = static_cast<std::size_t>(axis);
+    Range lower = r, upper = r;
+    lower.hi[a] = upper.lo[a] = (r.lo[a] + r.hi[a]) / 2;
+    split(lower);
+    split(upper);
   }
 };
 
@@ -82,24 +104,22 @@ struct Splitter {
 
 TilePlan TilePlanner::plan(std::uint64_t max_points) {
   TilePlan plan = plan_;
-  const int depth = plan.depth;
-  Splitter s{plan, std::max<std::uint64_t>(max_points, 1), {}};
-  s.levels.resize(static_cast<std::size_t>(depth) + 1);
-  s.levels[static_cast<std::size_t>(depth)] = counts_;
-  for (int d = depth; d > 0; --d) {
-    std::vector<std::uint64_t>& coarse = s.levels[static_cast<std::size_t>(d) - 1];
-    coarse.assign(std::size_t{1} << (3 * (d - 1)), 0);
-    const int side = 1 << d;
-    for (int z = 0; z < side; ++z) {
-      for (int y = 0; y < side; ++y) {
-        for (int x = 0; x < side; ++x) {
-          coarse[s.index(d - 1, {x >> 1, y >> 1, z >> 1})] += s.levels[static_cast<std::size_t>(d)][s.index(d, {x, y, z})];
-        }
+  Splitter s{plan, std::max<std::uint64_t>(max_points, 1), 1 << plan.depth, {}};
+  const int side = s.side;
+  s.sums.assign(static_cast<std::size_t>(side + 1) * static_cast<std::size_t>(side + 1) * static_cast<std::size_t>(side + 1), 0);
+  for (int z = 1; z <= side; ++z) {
+    for (int y = 1; y <= side; ++y) {
+      for (int x = 1; x <= side; ++x) {
+        const std::uint64_t c = counts_[(((static_cast<std::size_t>(z - 1) << plan.depth) | static_cast<std::size_t>(y - 1))
+                                         << plan.depth) | static_cast<std::size_t>(x - 1)];
+        s.sums[s.at(x, y, z)] = c + s.sums[s.at(x - 1, y, z)] + s.sums[s.at(x, y - 1, z)] + s.sums[s.at(x, y, z - 1)] -
+                                s.sums[s.at(x - 1, y - 1, z)] - s.sums[s.at(x - 1, y, z - 1)] -
+                                s.sums[s.at(x, y - 1, z - 1)] + s.sums[s.at(x - 1, y - 1, z - 1)];
       }
     }
   }
   plan.tile_of_cell.assign(counts_.size(), kNoTile);
-  s.split(0, {0, 0, 0});
+  s.split(Range{{0, 0, 0}, {side, side, side}});
   return plan;
 }
 

@@ -7,9 +7,10 @@
 // - every tile uses the whole cloud's spacing and patch radius (the level's parameters are
 //   the same everywhere);
 // - a tile's centres cover its own points only, and its patches gather points from its own
-//   points and a margin of 1.5 patch radii plus 8 spacings around it, so that a patch near the
-//   border holds the same points as untiled (a patch reaches one patch radius), and the normals
-//   estimated there see the same neighbourhoods (k = 16 nearest are within a few spacings);
+//   points and a margin of one patch radius plus 8 spacings around it, so that a patch near the
+//   border holds the same points as untiled (a patch reaches one patch radius from its centre,
+//   an own point), and the normals estimated there see the same neighbourhoods (k = 16 nearest
+//   are within a few spacings);
 // - the region decoder's cells are those of all centres, across tiles: a point near a border
 //   decodes from whichever tile's centre is nearest, as it would untiled.
 // Not the paper's (§4 encodes the whole cloud at once). The memory a tile needs is that of its
@@ -35,7 +36,7 @@ inline constexpr std::uint32_t kNoTile = std::numeric_limits<std::uint32_t>::max
 struct TilePlan {
   Box3f bounds;  // of every point
   int depth = kTileGridDepth;
-  std::vector<Box3f> boxes;           // octree leaves, depth-first (Morton) order
+  std::vector<Box3f> boxes;           // the leaves, depth-first (lower half first)
   std::vector<std::uint64_t> points;  // each leaf's point count
   std::vector<std::uint32_t> tile_of_cell;  // per grid cell: its leaf, or kNoTile
 
@@ -46,8 +47,12 @@ struct TilePlan {
   std::size_t size() const { return boxes.size(); }
 };
 
-// Counts points per grid cell, then plans: octree cells split in eight while they hold more than
-// `max_points` points and are coarser than the grid, empty leaves dropped.
+// Counts points per grid cell, then plans: a cell is halved across its longest side (in the
+// world) while it holds more than `max_points` points and is wider than one grid cell there,
+// empty leaves dropped. Every cut is an octree plane (a cell's middle), so the tiles are unions of
+// octree cells, but halving one axis at a time makes tiles between half the limit and the limit
+// where an octree's eighths would make them an eighth of it, and never cuts a flat cloud (airborne
+// LiDAR) across its thickness: larger tiles, less margin.
 class TilePlanner {
  public:
   explicit TilePlanner(const Box3f& bounds, int depth = kTileGridDepth);
