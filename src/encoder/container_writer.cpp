@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -611,8 +612,11 @@ StatusOr<std::string> ContainerStreamWriter::Impl::attribute_part(CompressedMode
   const auto blocks = static_cast<std::size_t>(block_count(h.patch_count, h.patches_per_block));
   std::vector<std::string> block_bytes(blocks);
   std::vector<std::array<std::uint64_t, kChannelCount>> block_channel_bytes(blocks);
-  std::vector<PointCloud> values(h.patch_count);  // each patch's points and values, until coded
+  // Each patch's points and values from its tile's decode until its block is coded: a tile's
+  // patches and a block's at a time, not the model's (a PointCloud is some 500 bytes empty).
+  std::map<std::size_t, PointCloud> values;
   std::size_t coded_blocks = 0;
+  const PointCloud empty;  // a patch that decodes to no point
   const float reach = h.codeword_radius + h.translation_step;
   const std::size_t tiles = tile_first_patch.size() - 1;
   for (std::size_t t = 0; t < tiles; ++t) {
@@ -658,19 +662,22 @@ StatusOr<std::string> ContainerStreamWriter::Impl::attribute_part(CompressedMode
       std::string sizes, streams;
       AttributeReferences refs;
       for (std::size_t k = begin; k < end; ++k) {
-        refs.find(values[k].positions);
+        const auto it = values.find(k);
+        const PointCloud& v = it != values.end() ? it->second : empty;
+        refs.find(v.positions);
         for (std::size_t bit = 0; bit < kChannelCount; ++bit) {
           const auto channel = static_cast<std::uint8_t>(1u << bit);
           if ((params.channels & channel) == 0) continue;
-          const std::string stream = encode_attribute_stream(channel, params, refs, values[k]);
+          const std::string stream = encode_attribute_stream(channel, params, refs, v);
           append_varint(sizes, stream.size());
           streams += stream;
           block_channel_bytes[b][bit] += stream.size();
         }
-        values[k] = PointCloud();
       }
       block_bytes[b] = sizes + streams;
     });
+    // Coded: dropped (serially, after the parallel loop that read them).
+    values.erase(values.begin(), values.lower_bound(std::max(coded_blocks, ready) * per));
     coded_blocks = std::max(coded_blocks, ready);
   }
 
