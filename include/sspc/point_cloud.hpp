@@ -121,6 +121,8 @@ struct PointCloud {
   // Appends `other`'s points with every per-point array (normals, colours, the LAS fields). The
   // two clouds must carry the same arrays (this one may be empty); origin and metadata stay.
   void append(const PointCloud& other);
+  // Points [begin, end) with every per-point array, the origin and the metadata.
+  PointCloud slice(std::size_t begin, std::size_t end) const;
 
   // Axis-aligned bounds of the positions; an empty box for an empty cloud.
   Box3f bounding_box() const;

@@ -399,6 +399,7 @@ struct ContainerStreamWriter::Impl {
   std::vector<std::vector<Codeword>> held;
   std::unique_ptr<CodebookSpill> spill;
   bool finished = false;
+  bool bounds_empty = false;  // the model's: then no tile may have patches
 
   Status write_tile_codebook(std::size_t t, std::vector<Codeword> codebook);
   Status write_codebook_blocks(bool last);
@@ -462,6 +463,7 @@ StatusOr<ContainerStreamWriter> ContainerStreamWriter::open(const EncodedModel& 
   impl->options = options;
   impl->h = shared_header(model, options);
   impl->metadata = model.metadata;
+  impl->bounds_empty = model.bounds.isEmpty();
   if (path != nullptr) {
     auto file = std::make_unique<FileSink>();
     SSPC_RETURN_IF_ERROR(file->open(*path));
@@ -498,7 +500,7 @@ Status ContainerStreamWriter::add_tile(EncodedModel tile) {
   tile.spacing = h.spacing;
   tile.has_normals = h.has_normals();
   tile.has_colours = h.has_colours();
-  tile.bounds = Box3f(h.bounds_min, h.bounds_max);
+  tile.bounds = m.bounds_empty ? Box3f() : Box3f(h.bounds_min, h.bounds_max);
   SSPC_RETURN_IF_ERROR(validate(tile, m.options));
   if (m.codewords + tile.codebook.size() > std::numeric_limits<std::uint32_t>::max() ||
       m.patches.size() + tile.patches.size() > std::numeric_limits<std::uint32_t>::max()) {
@@ -810,10 +812,10 @@ std::string ContainerStreamWriter::take_bytes() { return impl_->sink->take(); }
 
 namespace {
 
-// encode_container's and write_container's checks beyond validate(): the one source of
-// attributes is given and has them.
-Status validate_whole(const EncodedModel& model, const QuantOptions& o) {
-  SSPC_RETURN_IF_ERROR(validate(model, o));
+// encode_container's and write_container's check beyond what the writer validates (the options
+// when it opens, the model when it is added as the one tile): the one source of attributes is
+// given and has them.
+Status check_attribute_source(const QuantOptions& o) {
   if (o.attributes.channels != 0 &&
       (o.attribute_source == nullptr || (channels_present(*o.attribute_source) & o.attributes.channels) != o.attributes.channels)) {
     return invalid_argument("attributes asked for that the source does not have");
@@ -824,7 +826,7 @@ Status validate_whole(const EncodedModel& model, const QuantOptions& o) {
 }  // namespace
 
 StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOptions& options, ContainerStats* stats) {
-  SSPC_RETURN_IF_ERROR(validate_whole(model, options));
+  SSPC_RETURN_IF_ERROR(check_attribute_source(options));
   SSPC_ASSIGN_OR_RETURN(ContainerStreamWriter writer, ContainerStreamWriter::to_memory(model, options));
   SSPC_RETURN_IF_ERROR(writer.add_tile(model));
   const std::shared_ptr<const PointCloud> source(options.attribute_source, [](const PointCloud*) {});
@@ -839,7 +841,7 @@ StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOpt
 
 StatusOr<ContainerStats> write_container(const EncodedModel& model, const QuantOptions& options,
                                          const std::filesystem::path& path) {
-  SSPC_RETURN_IF_ERROR(validate_whole(model, options));
+  SSPC_RETURN_IF_ERROR(check_attribute_source(options));
   SSPC_ASSIGN_OR_RETURN(ContainerStreamWriter writer, ContainerStreamWriter::to_file(model, options, path));
   SSPC_RETURN_IF_ERROR(writer.add_tile(model));
   const std::shared_ptr<const PointCloud> source(options.attribute_source, [](const PointCloud*) {});

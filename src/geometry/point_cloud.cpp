@@ -11,27 +11,50 @@ void PointCloud::reserve(std::size_t n, bool with_normals, bool with_colours) {
   if (with_colours) colours.reserve(n);
 }
 
+namespace {
+
+// Calls f(to_array, from_array, values_per_point) for every per-point array of the two clouds,
+// so that the list of arrays is written once.
+template <typename F>
+void for_each_array(PointCloud& to, const PointCloud& from, F f) {
+  f(to.positions, from.positions, std::size_t{1});
+  f(to.normals, from.normals, std::size_t{1});
+  f(to.colours, from.colours, std::size_t{1});
+  LasPointAttributes& a = to.las;
+  const LasPointAttributes& b = from.las;
+  f(a.intensity, b.intensity, std::size_t{1});
+  f(a.return_number, b.return_number, std::size_t{1});
+  f(a.number_of_returns, b.number_of_returns, std::size_t{1});
+  f(a.classification, b.classification, std::size_t{1});
+  f(a.classification_flags, b.classification_flags, std::size_t{1});
+  f(a.scan_angle, b.scan_angle, std::size_t{1});
+  f(a.scan_flags, b.scan_flags, std::size_t{1});
+  f(a.user_data, b.user_data, std::size_t{1});
+  f(a.point_source_id, b.point_source_id, std::size_t{1});
+  f(a.gps_time, b.gps_time, std::size_t{1});
+  f(a.rgb, b.rgb, std::size_t{1});
+  f(a.nir, b.nir, std::size_t{1});
+  f(a.extra_bytes, b.extra_bytes, b.extra_bytes_per_point);
+}
+
+}  // namespace
+
 void PointCloud::append(const PointCloud& other) {
-  auto add = [](auto& to, const auto& from) { to.insert(to.end(), from.begin(), from.end()); };
-  add(positions, other.positions);
-  add(normals, other.normals);
-  add(colours, other.colours);
-  LasPointAttributes& a = las;
-  const LasPointAttributes& b = other.las;
-  add(a.intensity, b.intensity);
-  add(a.return_number, b.return_number);
-  add(a.number_of_returns, b.number_of_returns);
-  add(a.classification, b.classification);
-  add(a.classification_flags, b.classification_flags);
-  add(a.scan_angle, b.scan_angle);
-  add(a.scan_flags, b.scan_flags);
-  add(a.user_data, b.user_data);
-  add(a.point_source_id, b.point_source_id);
-  add(a.gps_time, b.gps_time);
-  add(a.rgb, b.rgb);
-  add(a.nir, b.nir);
-  add(a.extra_bytes, b.extra_bytes);
-  if (a.extra_bytes_per_point == 0) a.extra_bytes_per_point = b.extra_bytes_per_point;
+  for_each_array(*this, other, [](auto& to, const auto& from, std::size_t) { to.insert(to.end(), from.begin(), from.end()); });
+  if (las.extra_bytes_per_point == 0) las.extra_bytes_per_point = other.las.extra_bytes_per_point;
+}
+
+PointCloud PointCloud::slice(std::size_t begin, std::size_t end) const {
+  PointCloud out;
+  for_each_array(out, *this, [begin, end](auto& to, const auto& from, std::size_t per_point) {
+    if (from.empty()) return;
+    to.assign(from.begin() + static_cast<std::ptrdiff_t>(begin * per_point),
+              from.begin() + static_cast<std::ptrdiff_t>(end * per_point));
+  });
+  out.las.extra_bytes_per_point = las.extra_bytes_per_point;
+  out.origin = origin;
+  out.metadata = metadata;
+  return out;
 }
 
 Box3f PointCloud::bounding_box() const {

@@ -61,50 +61,13 @@ StatusOr<std::size_t> run_pass(const ChunkedRead& in, Pass pass, PointReader& re
   return points;
 }
 
-namespace {
-
-template <typename T>
-void copy_range(const std::vector<T>& from, std::size_t begin, std::size_t end,
-                std::size_t per_point, std::vector<T>& to) {
-  if (from.empty()) return;
-  to.assign(from.begin() + static_cast<std::ptrdiff_t>(begin * per_point),
-            from.begin() + static_cast<std::ptrdiff_t>(end * per_point));
-}
-
-PointCloud slice(const PointCloud& cloud, std::size_t begin, std::size_t end) {
-  PointCloud out;
-  copy_range(cloud.positions, begin, end, 1, out.positions);
-  copy_range(cloud.normals, begin, end, 1, out.normals);
-  copy_range(cloud.colours, begin, end, 1, out.colours);
-  const LasPointAttributes& a = cloud.las;
-  LasPointAttributes& b = out.las;
-  copy_range(a.intensity, begin, end, 1, b.intensity);
-  copy_range(a.return_number, begin, end, 1, b.return_number);
-  copy_range(a.number_of_returns, begin, end, 1, b.number_of_returns);
-  copy_range(a.classification, begin, end, 1, b.classification);
-  copy_range(a.classification_flags, begin, end, 1, b.classification_flags);
-  copy_range(a.scan_angle, begin, end, 1, b.scan_angle);
-  copy_range(a.scan_flags, begin, end, 1, b.scan_flags);
-  copy_range(a.user_data, begin, end, 1, b.user_data);
-  copy_range(a.point_source_id, begin, end, 1, b.point_source_id);
-  copy_range(a.gps_time, begin, end, 1, b.gps_time);
-  copy_range(a.rgb, begin, end, 1, b.rgb);
-  copy_range(a.nir, begin, end, 1, b.nir);
-  copy_range(a.extra_bytes, begin, end, a.extra_bytes_per_point, b.extra_bytes);
-  b.extra_bytes_per_point = a.extra_bytes_per_point;
-  out.origin = cloud.origin;
-  out.metadata = cloud.metadata;
-  return out;
-}
-
-}  // namespace
 
 Status hand_out_in_chunks(PointCloud cloud, std::size_t chunk_points,
                           const std::function<Status(PointCloud&&)>& sink) {
   SSPC_DCHECK(chunk_points > 0);
   if (cloud.size() <= chunk_points) return sink(std::move(cloud));
   for (std::size_t b = 0; b < cloud.size(); b += chunk_points) {
-    SSPC_RETURN_IF_ERROR(sink(slice(cloud, b, std::min(cloud.size(), b + chunk_points))));
+    SSPC_RETURN_IF_ERROR(sink(cloud.slice(b, std::min(cloud.size(), b + chunk_points))));
   }
   return Status();
 }
