@@ -459,12 +459,18 @@ The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
                 py::arg("path"), "Starts writing the model to `path` (atomically: it appears at finish()).")
             .def(
                 "add",
-                [](TiledEncoder& e, std::size_t t, const py::bytes& result) {
-                  std::string bytes = result;
-                  check(without_gil([&] { return e.add(t, std::move(bytes)); }));
+                [](TiledEncoder& e, std::size_t t, const py::object& result) {
+                  if (py::isinstance<py::bytes>(result)) {
+                    std::string bytes = result.cast<py::bytes>();
+                    check(without_gil([&] { return e.add(t, std::move(bytes)); }));
+                    return;
+                  }
+                  const std::filesystem::path path = file_path(result);
+                  check(without_gil([&] { return e.add_file(t, path); }));
                 },
                 py::arg("t"), py::arg("result"),
-                "Tile t's result, in any order; written as soon as every tile before it is.")
+                "Tile t's result, in any order: bytes, or the path of a file run_tile_job wrote (read when its turn "
+                "comes, then removed); written as soon as every tile before it is.")
             .def(
                 "finish",
                 [](TiledEncoder& e) {
@@ -484,6 +490,15 @@ The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
                 },
                 py::arg("t"), "Tile t's job: bytes for sspc.run_tile_job.")
             .def(
+                "write_job",
+                [](const TiledEncoder& e, std::size_t t, const py::object& path) {
+                  if (t >= e.tile_count()) throw py::index_error("tile " + std::to_string(t) + " out of range");
+                  const std::filesystem::path file = file_path(path);
+                  check(without_gil([&] { return e.write_job(t, file); }));
+                },
+                py::arg("t"), py::arg("path"),
+                "Tile t's job written to a file (atomically), for a worker that shares storage with this machine.")
+            .def(
                 "write",
                 [](TiledEncoder& e, const std::filesystem::path& path, const std::vector<std::string>& results) {
                   const auto start = std::chrono::steady_clock::now();
@@ -498,15 +513,24 @@ The file is byte for byte encode(cloud, path, tile_points=..., ...)'s.)doc")
       option_args());
   m.def(
       "run_tile_job",
-      [](const py::bytes& job, int threads) {
-        const std::string bytes = job;
+      [](const py::object& job, int threads, const py::object& result) -> py::object {
         ThreadLimit limit(threads);
-        return py::bytes(value_or_raise(without_gil([&] { return run_tile_job(bytes); })));
+        if (py::isinstance<py::bytes>(job)) {
+          if (!result.is_none()) throw py::value_error("run_tile_job: a result path needs the job as a path too");
+          const std::string bytes = job.cast<py::bytes>();
+          return py::bytes(value_or_raise(without_gil([&] { return run_tile_job(bytes); })));
+        }
+        if (result.is_none()) throw py::value_error("run_tile_job: a job's path needs a result path");
+        const std::filesystem::path from = file_path(job), to = file_path(result);
+        check(without_gil([&] { return run_tile_job_file(from, to); }));
+        return py::none();
       },
-      py::arg("job"), py::kw_only(), py::arg("threads") = 0, R"doc(
+      py::arg("job"), py::kw_only(), py::arg("threads") = 0, py::arg("result") = py::none(), R"doc(
 Runs one tile's job (TiledEncoder.job): normals where needed, patches, code book. Returns the
-tile's result as bytes for TiledEncoder.write. Deterministic whatever `threads` (> 0 caps the
-worker threads); releases the GIL.)doc");
+tile's result as bytes for TiledEncoder.add. With `job` a file's path (TiledEncoder.write_job) and
+`result` a path, reads the one and writes the other (atomically), returning None: on shared
+storage the bytes are copied once each way instead of through a scheduler. Deterministic whatever
+`threads` (> 0 caps the worker threads); releases the GIL.)doc");
 }
 
 }  // namespace

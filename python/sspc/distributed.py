@@ -3,6 +3,8 @@ Dask cluster's workers, and the client joins their results into one .sspc file, 
 file `sspc.encode(cloud, path, tile_points=N, ...)` writes on one machine.
 
     python3 -m sspc.distributed encode IN.ply OUT.sspc --tile-points 2000000 --scheduler tcp://host:8786
+    python3 -m sspc.distributed encode IN.ply /nfs/OUT.sspc --tile-points 2000000 --scheduler tcp://host:8786 \
+        --shared-dir /nfs/scratch        # a folder every machine mounts at the same path
     python3 -m sspc.distributed encode IN.ply OUT.sspc --tile-points 500000 --workers 2   # a local cluster
     python3 -m sspc.distributed encode IN.las OUT.sspc --memory-limit 2G --workers 2   # never held whole
 
@@ -21,14 +23,20 @@ each task gets one tile's job, which carries the tile's points with a margin of 
 patches and code book are the worker's work, nearly all of an encode's time). The client adds
 the results as they come, in tile order, then trims the code books, codes the attributes and
 writes the file, holding a few jobs and results at a time. On a real cluster every worker needs
-the same sspc build and nothing else: jobs travel through the scheduler, so no shared storage is
-needed; what limits the speed-up is the client's reading and planning and the final write, both
-serial (on autzen about a tenth of a one-machine encode), and the jobs' transfer over the network.
+the same sspc build and nothing else: without --shared-dir jobs and results travel through the
+scheduler, so no shared storage is needed; with a folder every machine mounts at the same path
+(NFS, a cluster file system) they travel as files there, copied far fewer times (a local
+cluster's default, its folder the output's). What limits the speed-up is the client's reading
+and planning and the final write, both serial (on autzen about a tenth of a one-machine encode),
+and the results' transfer (a code book of about 50 bytes per point of the tile).
 """
 
 import argparse
 import json
+import os
+import shutil
 import sys
+import tempfile
 import time
 
 from . import TiledEncoder, read
@@ -36,16 +44,18 @@ from . import TiledEncoder, read
 __all__ = ["encode", "main"]
 
 
-def _run_job(job, threads):
-    """One tile's job on a worker. The extension's functions do not pickle, so the task is this
-    module function, which imports it where it runs."""
+def _run_job(job, threads, result=None):
+    """One tile's job on a worker: its bytes, or a job file's path and the result file's (shared
+    storage). The extension's functions do not pickle, so the task is this module function, which
+    imports it where it runs."""
     from sspc import run_tile_job as run  # pylint: disable=import-outside-toplevel
 
-    return run(job, threads=threads)
+    out = run(job, threads=threads, result=result)
+    return result if result is not None else out
 
 
 def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_threads=None, tile_points=0,
-           memory_limit=0, work_dir=None, **options):
+           memory_limit=0, work_dir=None, shared_dir=None, **options):
     """Encodes `cloud` (a PointCloud, or a file's path, which is then read in passes and never held
     whole) into `path` with its tiles run on Dask. Give a `client` (dask.distributed.Client), or a
     `scheduler` address, or neither for a local cluster of `workers` processes (default: one per
@@ -54,7 +64,13 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
     tile's points; with a path, memory_limit (bytes) may size them instead, and the tiles wait in
     files of a hidden folder in work_dir (default: the system's temporary folder). The other keyword
     options are sspc.encode's; returns its statistics plus `tiles`, `dask_workers` and the seconds of
-    the three stages (plan, tiles, write)."""
+    the three stages (plan, tiles, write).
+
+    shared_dir: a folder that the client and every worker see at the same path (a local cluster's
+    default: the output's folder). Jobs and results then travel as files in a hidden folder made
+    there, and only their paths through the scheduler; without it (a remote cluster's default)
+    their bytes travel through the scheduler. On autzen's 16 tiles of 1M points a result is about
+    49 MB, and the scheduler's copies of it cost a local client 35 of its 48 CPU seconds."""
     from dask.distributed import Client, LocalCluster, as_completed
 
     if not tile_points and not memory_limit:
@@ -71,6 +87,9 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
             client = Client(own_cluster)
     if job_threads is None:
         job_threads = 1 if own_cluster is not None else 0
+    if shared_dir is None and own_cluster is not None:
+        shared_dir = os.path.dirname(os.path.abspath(os.fspath(path)))
+    files = tempfile.mkdtemp(prefix=".sspc-dask-", dir=shared_dir) if shared_dir is not None else None
     try:
         start = time.perf_counter()
         tiled = TiledEncoder(cloud, tile_points=tile_points, memory_limit=memory_limit, work_dir=work_dir,
@@ -85,12 +104,21 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         owner = {}
 
         def collect(done):
-            tiled.add(owner.pop(done.key), done.result())
+            t = owner.pop(done.key)
+            tiled.add(t, done.result())
+            if files is not None:
+                os.remove(os.path.join(files, f"{t}.job"))
 
         for t in range(tiled.tile_count):
             if pending.count() >= in_flight:
                 collect(next(pending))
-            future = client.submit(_run_job, tiled.job(t), job_threads, pure=False, key=f"sspc-tile-{t}")
+            if files is not None:
+                job = os.path.join(files, f"{t}.job")
+                tiled.write_job(t, job)
+                args = (job, job_threads, os.path.join(files, f"{t}.result"))
+            else:
+                args = (tiled.job(t), job_threads)
+            future = client.submit(_run_job, *args, pure=False, key=f"sspc-tile-{t}")
             owner[future.key] = t
             pending.add(future)
         for done in pending:
@@ -107,6 +135,8 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         if own_cluster is not None:
             client.close()
             own_cluster.close()
+        if files is not None:
+            shutil.rmtree(files, ignore_errors=True)
 
 
 def _size(text):
@@ -132,12 +162,16 @@ def main(argv=None):
                      help="bytes the client may hold (e.g. 2G): the input is read in passes and the tiles sized to it")
     enc.add_argument("--scheduler", help="a Dask scheduler's address (default: a local cluster)")
     enc.add_argument("--workers", type=int, help="local cluster: worker processes (default: one per core)")
+    enc.add_argument("--shared-dir",
+                     help="a folder the client and every worker see at the same path: jobs and results travel "
+                          "as files there (default: the output's folder on a local cluster, none otherwise)")
     enc.add_argument("-l", "--level", type=int, default=5)
     enc.add_argument("--json", action="store_true", help="statistics as JSON on stdout")
     args = parser.parse_args(argv)
     try:
         stats = encode(args.input, args.output, scheduler=args.scheduler, workers=args.workers,
-                       tile_points=args.tile_points, memory_limit=_size(args.memory_limit), level=args.level)
+                       tile_points=args.tile_points, memory_limit=_size(args.memory_limit),
+                       shared_dir=args.shared_dir, level=args.level)
     except (OSError, ValueError, RuntimeError) as e:
         print(f"sspc.distributed: {e}", file=sys.stderr)
         return 1

@@ -47,6 +47,32 @@ def test_tiled_encoder_jobs_run_anywhere_in_any_order(bunny, tmp_path):
         sspc.run_tile_job(b"SSPCTJ01" + b"\0" * 10)
 
 
+def test_jobs_and_results_as_files_give_the_same_bytes(bunny, tmp_path):
+    tiled = sspc.TiledEncoder(bunny, tile_points=9000, level=6)
+    expected = tmp_path / "bytes.sspc"
+    tiled.write(expected, [sspc.run_tile_job(tiled.job(t)) for t in range(tiled.tile_count)])
+    tiled.begin(tmp_path / "files.sspc")
+    for t in reversed(range(tiled.tile_count)):
+        job, result = tmp_path / f"{t}.job", tmp_path / f"{t}.result"
+        tiled.write_job(t, job)
+        assert job.read_bytes() == tiled.job(t)
+        assert sspc.run_tile_job(job, result=result, threads=1) is None
+        tiled.add(t, result)  # held as a path until its turn
+    tiled.finish()
+    assert (tmp_path / "files.sspc").read_bytes() == expected.read_bytes()
+    assert not list(tmp_path.glob("*.result"))  # each removed once added
+    tiled.begin(tmp_path / "bad.sspc")
+    (tmp_path / "junk.result").write_bytes(b"junk")
+    with pytest.raises(ValueError, match="junk.result"):
+        tiled.add(0, tmp_path / "junk.result")
+    with pytest.raises(ValueError, match="missing.result"):
+        tiled.add(0, tmp_path / "missing.result")
+    with pytest.raises(ValueError, match="result path"):
+        sspc.run_tile_job(tmp_path / "0.job")
+    with pytest.raises(OSError, match="no.job"):
+        sspc.run_tile_job(tmp_path / "no.job", result=tmp_path / "x.result")
+
+
 def test_a_file_read_in_passes_gives_the_bytes_of_the_cloud_in_memory(bunny, bunny_path, tmp_path):
     # The input never held whole: three passes over the file, one file per tile in work_dir.
     in_memory = sspc.encode(bunny, tmp_path / "memory.sspc", tile_points=9000, level=6)
@@ -74,9 +100,11 @@ def test_dask_from_a_file_under_a_memory_limit(bunny_path, client, tmp_path):
     import sspc.distributed  # pylint: disable=import-outside-toplevel
 
     sspc.encode(bunny_path, tmp_path / "local.sspc", tile_points=9000, memory_limit=1 << 30, level=6)
+    # Jobs and results as files in a folder the workers share (the paths alone through the scheduler).
     stats = sspc.distributed.encode(bunny_path, tmp_path / "dask.sspc", client=client, tile_points=9000,
-                                    memory_limit=1 << 30, work_dir=tmp_path, level=6)
+                                    memory_limit=1 << 30, work_dir=tmp_path, shared_dir=tmp_path, level=6)
     assert stats["tiles"] > 1
     assert (tmp_path / "dask.sspc").read_bytes() == (tmp_path / "local.sspc").read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dask.sspc", "local.sspc"]  # nothing left behind
     with pytest.raises(ValueError, match="file's path"):
         sspc.distributed.encode(sspc.read(bunny_path), tmp_path / "x.sspc", client=client, memory_limit=1 << 30)

@@ -317,21 +317,30 @@ class CodebookSpill {
   ~CodebookSpill() {
     if (file_ != nullptr) std::fclose(file_);
   }
+  // Written straight through the stream's buffer: building the record in one string first cost
+  // 0.38 s of a tile's 0.46 s on autzen's 1M-point tiles (a fresh 47 MB, its pages faulted in).
   Status put(const std::vector<Codeword>& codebook) {
-    std::string out;
-    put_u64(out, codebook.size());
-    for (const Codeword& w : codebook) {
-      put_u64(out, w.points.size());
-      put_u8(out, static_cast<std::uint8_t>((w.normals.empty() ? 0 : 1) | (w.colours.empty() ? 0 : 2)));
-      append(out, w.points.data(), w.points.size() * sizeof(Vec3f));
-      append(out, w.normals.data(), w.normals.size() * sizeof(Vec3f));
-      append(out, w.colours.data(), w.colours.size() * sizeof(Rgb8));
+    const std::uint64_t start = end_;
+    auto write = [this](const void* data, std::size_t n) {
+      if (n > 0 && std::fwrite(data, 1, n, file_) != n) return false;
+      end_ += n;
+      return true;
+    };
+    bool ok = std::fseek(file_, 0, SEEK_END) == 0;
+    std::string head;
+    put_u64(head, codebook.size());
+    ok = ok && write(head.data(), head.size());
+    for (std::size_t i = 0; i < codebook.size() && ok; ++i) {
+      const Codeword& w = codebook[i];
+      head.clear();
+      put_u64(head, w.points.size());
+      put_u8(head, static_cast<std::uint8_t>((w.normals.empty() ? 0 : 1) | (w.colours.empty() ? 0 : 2)));
+      ok = write(head.data(), head.size()) && write(w.points.data(), w.points.size() * sizeof(Vec3f)) &&
+           write(w.normals.data(), w.normals.size() * sizeof(Vec3f)) &&
+           write(w.colours.data(), w.colours.size() * sizeof(Rgb8));
     }
-    records_.emplace_back(end_, out.size());
-    end_ += out.size();
-    if (std::fseek(file_, 0, SEEK_END) != 0 || std::fwrite(out.data(), 1, out.size(), file_) != out.size()) {
-      return io_error(path_.string() + ": write failed: " + std::strerror(errno));
-    }
+    if (!ok) return io_error(path_.string() + ": write failed: " + std::strerror(errno));
+    records_.emplace_back(start, end_ - start);
     return Status();
   }
   StatusOr<std::vector<Codeword>> get(std::size_t t) {
@@ -368,9 +377,6 @@ class CodebookSpill {
   }
 
  private:
-  static void append(std::string& out, const void* data, std::size_t n) {
-    out.append(static_cast<const char*>(data), n);
-  }
   StagingDirectory dir_;
   std::filesystem::path path_;
   std::FILE* file_ = nullptr;
@@ -398,10 +404,16 @@ struct ContainerStreamWriter::Impl {
   // file beside the output.
   std::vector<std::vector<Codeword>> held;
   std::unique_ptr<CodebookSpill> spill;
+  std::vector<Box3f> expected;  // expect_tiles(): the boxes that hold each tile's patch centres
+  std::vector<Box3f> written_reach;  // reach_of() of the tiles written before finish()
+  std::size_t written_tiles = 0;  // tiles whose code books are trimmed and in blocks or pending
   bool finished = false;
   bool bounds_empty = false;  // the model's: then no tile may have patches
 
-  Status write_tile_codebook(std::size_t t, std::vector<Codeword> codebook);
+  std::size_t tiles() const { return tile_first_patch.size() - 1; }
+  Box3f reach_of(std::size_t t) const;
+  Status write_tile_codebook(std::size_t t);
+  Status write_ready_tiles();
   Status write_codebook_blocks(bool last);
   StatusOr<std::string> attribute_part(CompressedModel& geometry, const TileSource& source);
 };
@@ -510,6 +522,16 @@ Status ContainerStreamWriter::add_tile(EncodedModel tile) {
   // the patches of every tile that may neighbour this one's are known.
   express_in_decoded_frames(tile, h);
   if (!m.options.keep_duplicates) merge_duplicate_cells(tile, h);
+  // A tile written early was trimmed without this one's patches: none may lie within its reach
+  // (else expect_tiles() was given a wrong box and the trim would differ from finish()'s).
+  for (std::size_t t = 0; t < m.written_reach.size(); ++t) {
+    for (const PatchInstance& p : tile.patches) {
+      if (m.written_reach[t].contains(p.region_centre())) {
+        return internal_error("tile " + std::to_string(m.tiles()) + " has a patch within reach of tile " +
+                              std::to_string(t) + ", written before it: the expected tile boxes are wrong");
+      }
+    }
+  }
   const auto offset = static_cast<std::uint32_t>(m.codewords);
   for (PatchInstance p : tile.patches) {
     p.codeword += offset;
@@ -518,32 +540,71 @@ Status ContainerStreamWriter::add_tile(EncodedModel tile) {
   m.tile_first_patch.push_back(m.patches.size());
   m.codewords += tile.codebook.size();
   m.tile_first_codeword.push_back(m.codewords);
-  if (m.spill) return m.spill->put(tile.codebook);
-  m.held.push_back(std::move(tile.codebook));
+  if (m.spill) {
+    SSPC_RETURN_IF_ERROR(m.spill->put(tile.codebook));
+  } else {
+    m.held.push_back(std::move(tile.codebook));
+  }
+  return m.write_ready_tiles();
+}
+
+void ContainerStreamWriter::expect_tiles(std::vector<Box3f> boxes) { impl_->expected = std::move(boxes); }
+
+// Where the patches that may claim tile t's code-word points lie: a neighbour of a patch lies
+// within 2ρ ≤ 2·patch_radius (FORMAT.md, "Decoding: regions") of its decoded centre, which is
+// within a translation step of the stored one. Empty for a tile without patches.
+Box3f ContainerStreamWriter::Impl::reach_of(std::size_t t) const {
+  Box3f box;
+  for (std::size_t k = tile_first_patch[t]; k < tile_first_patch[t + 1]; ++k) box.extend(patches[k].region_centre());
+  if (box.isEmpty()) return box;
+  const float reach = 2.01f * h.patch_radius + 2 * h.translation_step;
+  return Box3f(box.min() - Vec3f::Constant(reach), box.max() + Vec3f::Constant(reach));
+}
+
+// With the tiles' boxes known, every tile whose reach no tile still to come can enter is trimmed
+// and written now, in order, so that finish() is left the last few: on a Dask client this work
+// overlaps the workers' (autzen in 16 tiles: 8.1 s of finish() moved into the tiles' time). The
+// bytes are finish()'s: a tile still to come has its patch centres in its box, moved by at most
+// a translation step by express_in_decoded_frames.
+Status ContainerStreamWriter::Impl::write_ready_tiles() {
+  if (expected.size() < tiles()) return Status();
+  const Vec3f slack = Vec3f::Constant(2 * h.translation_step);
+  while (written_tiles < tiles()) {
+    const Box3f reach = reach_of(written_tiles);
+    for (std::size_t j = tiles(); j < expected.size(); ++j) {
+      const Box3f& b = expected[j];
+      if (!reach.isEmpty() && !b.isEmpty() && Box3f(b.min() - slack, b.max() + slack).intersects(reach)) {
+        return Status();
+      }
+    }
+    written_reach.push_back(reach);
+    SSPC_RETURN_IF_ERROR(write_tile_codebook(written_tiles++));
+  }
   return Status();
 }
 
 // Tile t's code book trimmed (against its own patches and every other tile's within reach:
 // exactly the whole model's trim) and its whole blocks written.
-Status ContainerStreamWriter::Impl::write_tile_codebook(std::size_t t, std::vector<Codeword> codebook) {
+Status ContainerStreamWriter::Impl::write_tile_codebook(std::size_t t) {
+  std::vector<Codeword> codebook;
+  if (spill) {
+    SSPC_ASSIGN_OR_RETURN(codebook, spill->get(t));
+  } else {
+    codebook = std::move(held[t]);
+  }
   if (options.trim_unclaimed) {
     EncodedModel tile;
     tile.codebook = std::move(codebook);
     const std::size_t first = tile_first_patch[t], last = tile_first_patch[t + 1];
     const auto offset = static_cast<std::uint32_t>(tile_first_codeword[t]);
-    Box3f box;
     for (std::size_t k = first; k < last; ++k) {
       PatchInstance p = patches[k];
       p.codeword -= offset;
       tile.patches.push_back(p);
-      box.extend(p.region_centre());
     }
-    // A neighbour of a patch lies within 2ρ ≤ 2·patch_radius (FORMAT.md, "Decoding: regions")
-    // of its decoded centre, which is within a translation step of the stored one.
-    const float reach = 2.01f * h.patch_radius + 2 * h.translation_step;
-    const Box3f grown(box.min() - Vec3f::Constant(reach), box.max() + Vec3f::Constant(reach));
+    const Box3f grown = reach_of(t);
     std::vector<IndexedPatch> others;
-    if (!box.isEmpty()) {
+    if (!grown.isEmpty()) {
       for (std::size_t k = 0; k < patches.size(); ++k) {
         if ((k < first || k >= last) && grown.contains(patches[k].region_centre())) {
           others.push_back({static_cast<std::uint32_t>(k), patches[k]});
@@ -717,15 +778,7 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
   if (m.finished) return internal_error("ContainerStreamWriter::finish twice");
   m.finished = true;
   ContainerHeader& h = m.h;
-  for (std::size_t t = 0; t + 1 < m.tile_first_patch.size(); ++t) {
-    std::vector<Codeword> codebook;
-    if (m.spill) {
-      SSPC_ASSIGN_OR_RETURN(codebook, m.spill->get(t));
-    } else {
-      codebook = std::move(m.held[t]);
-    }
-    SSPC_RETURN_IF_ERROR(m.write_tile_codebook(t, std::move(codebook)));
-  }
+  while (m.written_tiles < m.tiles()) SSPC_RETURN_IF_ERROR(m.write_tile_codebook(m.written_tiles++));
   m.spill.reset();
   SSPC_RETURN_IF_ERROR(m.write_codebook_blocks(true));
   h.codeword_count = static_cast<std::uint32_t>(m.codewords);

@@ -100,6 +100,11 @@ class ContainerStreamWriter {
   // A tile's code book and the patches that use it, code-word indices local to the tile (the
   // model-wide fields of `tile` are ignored). Tiles are numbered in the order they are added.
   Status add_tile(EncodedModel tile);
+  // The boxes that hold each tile's patch centres, in the order the tiles will be added, when
+  // known in advance (a tiled encode's plan): a tile's code book is then trimmed and written as
+  // soon as no tile still to come can hold a patch within its reach, not all at finish(). The
+  // same bytes either way.
+  void expect_tiles(std::vector<Box3f> boxes);
   // Writes the rest; `attributes` is needed when options.attributes names channels.
   StatusOr<ContainerStats> finish(const TileSource& attributes = {});
   // to_memory: the container's bytes, after finish().

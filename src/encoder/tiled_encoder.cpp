@@ -10,7 +10,11 @@
 #include <numbers>
 #include <numeric>
 #include <optional>
+#include <system_error>
+#include <variant>
 
+#include "core/atomic_file.hpp"
+#include "core/mapped_file.hpp"
 #include "core/stopwatch.hpp"
 #include "encoder/encode_steps.hpp"
 #include "encoder/patch_centres.hpp"
@@ -36,7 +40,9 @@ struct TiledEncoder::Impl {
   std::optional<codec::ContainerStreamWriter> writer;
   ContainerChoice choice;
   std::size_t next = 0;  // the next tile to write
-  std::map<std::size_t, std::string> waiting;  // results that came before their turn
+  // Results that came before their turn: bytes, or a file's path (add_file).
+  using Result = std::variant<std::string, std::filesystem::path>;
+  std::map<std::size_t, Result> waiting;
   codec::BuildStats build_stats;
   std::uint64_t patches = 0, codewords = 0;
   double max_coverage_distance = 0;
@@ -44,6 +50,7 @@ struct TiledEncoder::Impl {
 
   const codec::TilePlan& plan() const { return store->plan(); }
   Status measure();
+  Status accept(std::size_t t, Result result);
   Status write_waiting();
   void stop_writing() {
     writer.reset();
@@ -234,9 +241,31 @@ StatusOr<std::string> TiledEncoder::job(std::size_t t) const {
   return codec::serialise_tile_job(job);
 }
 
+namespace {
+
+Status write_bytes(const std::filesystem::path& path, std::string_view bytes) {
+  AtomicFileWriter file;
+  SSPC_RETURN_IF_ERROR(file.open(path));
+  SSPC_RETURN_IF_ERROR(file.write(bytes));
+  return file.commit();
+}
+
+std::string_view view(const MappedFile& file) {
+  const std::span<const std::byte> bytes = file.bytes();
+  return {reinterpret_cast<const char*>(bytes.data()), bytes.size()};
+}
+
+}  // namespace
+
+Status TiledEncoder::write_job(std::size_t t, const std::filesystem::path& path) const {
+  SSPC_ASSIGN_OR_RETURN(const std::string bytes, job(t));
+  return write_bytes(path, bytes);
+}
+
 Status TiledEncoder::begin(const std::filesystem::path& output) {
   Impl& m = *impl_;
   if (m.writer) return invalid_argument("tiled encode: begin() twice");
+  m.stop_writing();  // after a finish(): the same encoder writes the model again
   const codec::TileInput& in = m.store->input();
   codec::BuildStats& bs = m.build_stats;
   bs.spacing = m.build.spacing;
@@ -253,6 +282,7 @@ Status TiledEncoder::begin(const std::filesystem::path& output) {
   m.choice = container_options(m.options, m.build, bs, in.bounds, in.channels);
   SSPC_ASSIGN_OR_RETURN(codec::ContainerStreamWriter writer,
                         codec::ContainerStreamWriter::to_file(shared, m.choice.quant, output, true));
+  writer.expect_tiles(m.plan().boxes);  // a tile's patch centres are its own points
   m.writer.emplace(std::move(writer));
   m.begun = std::chrono::steady_clock::now();
   return Status();
@@ -260,9 +290,22 @@ Status TiledEncoder::begin(const std::filesystem::path& output) {
 
 Status TiledEncoder::Impl::write_waiting() {
   for (auto it = waiting.find(next); it != waiting.end(); it = waiting.find(next)) {
-    auto tile = codec::parse_tile_result(it->second);
+    StatusOr<codec::TileResult> tile = internal_error("no result");
+    std::string where = "tile " + std::to_string(next);
+    if (const auto* bytes = std::get_if<std::string>(&it->second)) {
+      tile = codec::parse_tile_result(*bytes);
+    } else {
+      const std::filesystem::path& path = std::get<std::filesystem::path>(it->second);
+      where = path.string();
+      auto file = MappedFile::open(path);
+      tile = file.ok() ? codec::parse_tile_result(view(*file)) : StatusOr<codec::TileResult>(file.status());
+      if (tile.ok()) {
+        std::error_code ignored;
+        std::filesystem::remove(path, ignored);
+      }
+    }
     waiting.erase(it);  // a bad result may be given again
-    if (!tile.ok()) return invalid_argument("tile " + std::to_string(next) + ": " + tile.status().message());
+    if (!tile.ok()) return invalid_argument(where + ": " + tile.status().message());
     patches += tile->model.patches.size();
     codewords += tile->model.codebook.size();
     build_stats.codebook.candidates_tested += tile->stats.codebook.candidates_tested;
@@ -274,15 +317,18 @@ Status TiledEncoder::Impl::write_waiting() {
   return Status();
 }
 
-Status TiledEncoder::add(std::size_t t, std::string result) {
-  Impl& m = *impl_;
-  if (!m.writer) return invalid_argument("tiled encode: add() before begin()");
-  if (t >= tile_count() || t < m.next || m.waiting.contains(t)) {
+Status TiledEncoder::Impl::accept(std::size_t t, Result result) {
+  if (!writer) return invalid_argument("tiled encode: a result added before begin()");
+  if (t >= plan().size() || t < next || waiting.contains(t)) {
     return invalid_argument("tiled encode: a result for tile " + std::to_string(t) + " given twice or out of range");
   }
-  m.waiting.emplace(t, std::move(result));
-  return m.write_waiting();
+  waiting.emplace(t, std::move(result));
+  return write_waiting();
 }
+
+Status TiledEncoder::add(std::size_t t, std::string result) { return impl_->accept(t, std::move(result)); }
+
+Status TiledEncoder::add_file(std::size_t t, const std::filesystem::path& result) { return impl_->accept(t, result); }
 
 StatusOr<EncodeStats> TiledEncoder::finish() {
   Impl& m = *impl_;
@@ -344,6 +390,13 @@ StatusOr<std::string> run_tile_job(std::string_view bytes) {
   result.max_coverage_distance = codec::max_distance_to_centres(
       std::span(job.part.positions).first(job.build.core_points), origins);
   return codec::serialise_tile_result(result);
+}
+
+Status run_tile_job_file(const std::filesystem::path& job, const std::filesystem::path& result) {
+  SSPC_ASSIGN_OR_RETURN(const MappedFile file, MappedFile::open(job));
+  auto bytes = run_tile_job(view(file));
+  if (!bytes.ok()) return Status(bytes.status().code(), job.string() + ": " + bytes.status().message());
+  return write_bytes(result, *bytes);
 }
 
 StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Progress* progress) {
