@@ -15,6 +15,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/mapped_file.hpp"
+#include "core/parallel.hpp"
 #include "core/stopwatch.hpp"
 #include "encoder/encode_steps.hpp"
 #include "encoder/patch_centres.hpp"
@@ -109,12 +110,18 @@ Status TiledEncoder::Impl::measure() {
     return own;
   };
   // Per sample: the distance to its nearest distinct neighbour among the tile's points, and to
-  // the tile's faces.
-  std::vector<std::pair<float, float>> nearest;
-  for (const std::size_t t : all) {
-    SSPC_ASSIGN_OR_RETURN(const Own tile, load_own(t));
-    const KdTree3 tree(tile.cloud.positions);
-    const std::size_t n = tile.cloud.size();
+  // the tile's faces. The tiles in parallel, each into its own list, joined in tile order (a
+  // search tree over each tile's points: 16 of 1M on autzen, 2.4 s on one thread).
+  std::vector<std::vector<std::pair<float, float>>> per_tile(p.size());
+  std::vector<Status> loaded(p.size());
+  parallel_for(0, p.size(), 1, [&](std::size_t t) {
+    auto tile = load_own(t);
+    if (!tile.ok()) {
+      loaded[t] = tile.status();
+      return;
+    }
+    const KdTree3 tree(tile->cloud.positions);
+    const std::size_t n = tile->cloud.size();
     const std::size_t count = std::min<std::size_t>(
         n, std::max<std::size_t>(1, static_cast<std::size_t>(kSpacingSamples * p.points[t] / std::max<std::uint64_t>(total, 1))));
     for (std::size_t s = 0; s < count && n >= 2; ++s) {
@@ -123,14 +130,19 @@ Status TiledEncoder::Impl::measure() {
       // would read a spacing of 0).
       std::uint32_t idx[8];
       float d2[8];
-      const std::size_t found = tree.knn(tile.cloud.positions[i], 8, idx, d2);
+      const std::size_t found = tree.knn(tile->cloud.positions[i], 8, idx, d2);
       for (std::size_t j = 1; j < found; ++j) {
         if (d2[j] > 0) {
-          nearest.emplace_back(std::sqrt(d2[j]), tile.inside[i]);
+          per_tile[t].emplace_back(std::sqrt(d2[j]), tile->inside[i]);
           break;
         }
       }
     }
+  });
+  std::vector<std::pair<float, float>> nearest;
+  for (std::size_t t = 0; t < p.size(); ++t) {
+    SSPC_RETURN_IF_ERROR(loaded[t]);
+    nearest.insert(nearest.end(), per_tile[t].begin(), per_tile[t].end());
   }
   // The median over the samples at least four spacings inside their tile, whose nearest
   // neighbour is then in the tile: chosen by place, not by their own distance (keeping those
@@ -154,10 +166,13 @@ Status TiledEncoder::Impl::measure() {
   build.spacing = spacing;
 
   const double guess = build.spacing * std::sqrt(static_cast<double>(build.level.patch_points) / std::numbers::pi);
-  std::vector<std::pair<double, std::size_t>> radii;
-  for (const std::size_t t : sampled) {
+  // The sampled tiles in parallel, each radius in its tile's slot.
+  std::vector<double> radius_of(sampled.size(), -1);
+  std::vector<Status> measured(sampled.size());
+  parallel_for(0, sampled.size(), 1, [&](std::size_t k) {
+    const std::size_t t = sampled[k];
     const std::uint64_t points = p.points[t];
-    if (points < 16) continue;
+    if (points < 16) return;
     // Sampled among the tile's own points, counted over them and a margin of its neighbours'
     // as deep as the spheres reach: at first three times a flat sampling's radius, then, while
     // the radius found reaches past four fifths of that, twice the radius found. (Sampling only
@@ -165,14 +180,23 @@ Status TiledEncoder::Impl::measure() {
     // long: the points near a tile's faces, the scan's edges among them, are not like the rest.)
     double depth = 3 * guess, radius = 0;
     for (int round = 0; round < 3; ++round) {
-      SSPC_ASSIGN_OR_RETURN(const PointCloud part, store->load(t, static_cast<float>(depth)));
-      const KdTree3 tree(part.positions);
-      radius = codec::radius_for_patch_points(part, tree, build.spacing, build.level.patch_points,
+      auto part = store->load(t, static_cast<float>(depth));
+      if (!part.ok()) {
+        measured[k] = part.status();
+        return;
+      }
+      const KdTree3 tree(part->positions);
+      radius = codec::radius_for_patch_points(*part, tree, build.spacing, build.level.patch_points,
                                               static_cast<std::size_t>(points));
       if (radius <= 0.8 * depth) break;
       depth = 2 * radius;
     }
-    radii.emplace_back(radius, points);
+    radius_of[k] = radius;
+  });
+  std::vector<std::pair<double, std::size_t>> radii;
+  for (std::size_t k = 0; k < sampled.size(); ++k) {
+    SSPC_RETURN_IF_ERROR(measured[k]);
+    if (radius_of[k] >= 0) radii.emplace_back(radius_of[k], p.points[sampled[k]]);
   }
   if (radii.empty()) return invalid_argument("no tile has 16 points; use larger tiles");
   const Box3f& b = store->input().bounds;
