@@ -14,6 +14,7 @@
 
 #include "command.hpp"
 #include "core/atomic_file.hpp"
+#include "sspc/allocator.hpp"
 
 namespace {
 
@@ -37,6 +38,7 @@ int main(int argc, char** argv) {
   using namespace sspc::cli;
   // Ctrl-C or a full disk leaves the old output and no temporary file (core/atomic_file.hpp).
   sspc::remove_temporary_files_on_signals();
+  sspc::keep_freed_memory();  // freed blocks reused, not faulted in again (sspc/allocator.hpp)
   // A reader that closes the pipe early makes writes to stdout fail with EPIPE, which is
   // reported and cleans up, instead of killing the process with a temporary file left behind.
   std::signal(SIGPIPE, SIG_IGN);

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "conversions.hpp"
+#include "sspc/allocator.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/tiled_encoder.hpp"
@@ -537,6 +538,12 @@ storage the bytes are copied once each way instead of through a scheduler. Deter
 
 void bind_codec(py::module_& m) {
   bind_tiled_encoder(m);
+  m.def("keep_freed_memory", &keep_freed_memory, R"doc(
+Tells the C library's allocator (glibc) to keep freed memory for reuse instead of returning it
+to the system and faulting it in again: a process that encodes large clouds runs faster (autzen
+under a 2 GiB memory limit 108 s -> 77 s), its resident size staying near its peak. A
+process-wide setting, which sspc never makes on its own; sspc.distributed calls it in the
+client and in every worker.)doc");
   std::apply(
       [&](auto... options) {
         m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), options...,

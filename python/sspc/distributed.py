@@ -39,7 +39,7 @@ import sys
 import tempfile
 import time
 
-from . import TiledEncoder, read
+from . import TiledEncoder, keep_freed_memory, read
 
 __all__ = ["encode", "main"]
 
@@ -48,8 +48,9 @@ def _run_job(job, threads, result=None):
     """One tile's job on a worker: its bytes, or a job file's path and the result file's (shared
     storage). The extension's functions do not pickle, so the task is this module function, which
     imports it where it runs."""
-    from sspc import run_tile_job as run  # pylint: disable=import-outside-toplevel
+    from sspc import keep_freed_memory, run_tile_job as run  # pylint: disable=import-outside-toplevel
 
+    keep_freed_memory()  # this worker process's allocator, as the sspc CLI sets its own
     out = run(job, threads=threads, result=result)
     return result if result is not None else out
 
@@ -89,6 +90,7 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         job_threads = 1 if own_cluster is not None else 0
     if shared_dir is None and own_cluster is not None:
         shared_dir = os.path.dirname(os.path.abspath(os.fspath(path)))
+    keep_freed_memory()
     files = tempfile.mkdtemp(prefix=".sspc-dask-", dir=shared_dir) if shared_dir is not None else None
     try:
         start = time.perf_counter()

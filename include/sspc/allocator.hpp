@@ -1,0 +1,16 @@
+// The C library's allocator told to keep freed memory for reuse (a process-wide policy, for
+// programs that encode large clouds: the CLI and Dask workers call it; the library never does).
+//
+// By default glibc gives every block above a sliding threshold (at most 32 MB) its own mapping
+// and returns freed memory at the heap's top beyond 128 KB, so an encode that allocates and frees
+// tens of megabytes per patch batch and per tile faults the same pages in again and again
+// (the kernel zeroes each). Keeping them: autzen under --memory-limit 2G on 2 cores 107.8 s ->
+// 77.2 s (system time 24.7 -> 9.3 s), peak 1.99 -> 1.92 GB; one 1M-point tile job 14.2 -> 12.8 s.
+// The process's resident size then stays near its peak until it exits, which it reaches anyway.
+#pragma once
+
+namespace sspc {
+
+void keep_freed_memory();
+
+}  // namespace sspc
