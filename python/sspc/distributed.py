@@ -50,7 +50,7 @@ def _run_job(job, threads, result=None):
     imports it where it runs."""
     from sspc import keep_freed_memory, run_tile_job as run  # pylint: disable=import-outside-toplevel
 
-    keep_freed_memory()  # this worker process's allocator, as the sspc CLI sets its own
+    keep_freed_memory()  # this worker's allocator (memory_limit bounds the client, not the workers)
     out = run(job, threads=threads, result=result)
     return result if result is not None else out
 
@@ -91,7 +91,8 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         job_threads = 1 if own_cluster is not None else 0
     if shared_dir is None and own_cluster is not None:
         shared_dir = os.path.dirname(os.path.abspath(os.fspath(path)))
-    keep_freed_memory()
+    if not memory_limit:  # what the allocator keeps would break the client's bound
+        keep_freed_memory()
     files = tempfile.mkdtemp(prefix=".sspc-dask-", dir=shared_dir) if shared_dir is not None else None
     try:
         start = time.perf_counter()
