@@ -98,11 +98,9 @@ int main(int argc, char** argv) {
   }
   for (const Command& command : commands) {
     if (command.app->parsed()) {
-      // Freed blocks reused, not faulted in again (sspc/allocator.hpp); not under a memory limit,
-      // whose bound the memory kept would break (100M points under 2G peaked at 2.47 GB, 1.85
-      // without).
-      const CLI::Option* limit = command.app->get_option_no_throw("--memory-limit");
-      if (limit == nullptr || limit->count() == 0) sspc::keep_freed_memory();
+      // Freed blocks reused, not faulted in again (sspc/allocator.hpp); under --memory-limit the
+      // tiles are sized with what that keeps (tile_points_for_memory).
+      sspc::keep_freed_memory();
       const CLI::Option* json = command.app->get_option_no_throw("--json");
       if (json != nullptr && json->count() > 0)
         report_errors_as_json(command.app->get_name(), files_named(*command.app));

@@ -542,10 +542,9 @@ void bind_codec(py::module_& m) {
 Tells the C library's allocator (glibc) to keep freed memory for reuse instead of returning it
 to the system and faulting it in again: a process that encodes large clouds runs faster (a
 1M-point tile job 14.2 s -> 12.8 s; autzen in 2 tiles 108 s -> 77 s), but its resident size
-stays near its peak and the peak grows (100M points in tiles: 2.47 GB instead of 1.85), so not
-for a process held to a memory limit. A process-wide setting, which sspc never makes on its own;
-the sspc CLI makes it except under --memory-limit, sspc.distributed in every worker and, without
-a memory_limit, in the client.)doc");
+stays near its peak and the peak grows (100M points in tiles of 5.75M: 2.47 GB instead of 1.85;
+memory_limit sizes tiles with it). A process-wide setting, which sspc never makes on its own;
+the sspc CLI and sspc.distributed (client and workers) make it.)doc");
   std::apply(
       [&](auto... options) {
         m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), options...,

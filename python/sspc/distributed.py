@@ -91,8 +91,7 @@ def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_thread
         job_threads = 1 if own_cluster is not None else 0
     if shared_dir is None and own_cluster is not None:
         shared_dir = os.path.dirname(os.path.abspath(os.fspath(path)))
-    if not memory_limit:  # what the allocator keeps would break the client's bound
-        keep_freed_memory()
+    keep_freed_memory()  # the tiles are sized with what it keeps (tile_points_for_memory)
     files = tempfile.mkdtemp(prefix=".sspc-dask-", dir=shared_dir) if shared_dir is not None else None
     try:
         start = time.perf_counter()

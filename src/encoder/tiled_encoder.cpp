@@ -392,13 +392,14 @@ StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, s
 }
 
 // What a tile's encode holds per point of the tile (its job and margin, normals, the search
-// tree, patches, code book and the result's bytes): measured on autzen at level 5 under a 2 GiB
-// limit, 8 tiles, the largest of 2.67M points, the process peaked at 911 MB resident, about 320
-// bytes per point of the largest tile (its margin included); 350 leaves room for a tile whose
-// margin is relatively larger.
+// tree, patches, code book and the result's bytes), with the freed memory the sspc CLI keeps for
+// reuse (sspc/allocator.hpp): measured at level 5 under a 2 GiB limit, autzen in 2 tiles of 5.3M
+// peaked at 1,926 MB (337 bytes a point of a tile), 100M generated points in 26 tiles of at most
+// 5.75M at 2,467 MB (at least 407); 470 leaves room for a tile whose margin is relatively larger.
+// (Without kept memory 100M peaked at 1,847 MB, but ran at 98k points/s instead of 126k.)
 std::uint64_t tile_points_for_memory(std::uint64_t memory_limit_bytes) {
   constexpr std::uint64_t kFixed = 128ull << 20;  // the plan's grid, the patches, the read chunks
-  constexpr std::uint64_t kPerPoint = 350;
+  constexpr std::uint64_t kPerPoint = 470;
   constexpr std::uint64_t kLeast = 1u << 16;
   return std::max(kLeast, memory_limit_bytes > kFixed ? (memory_limit_bytes - kFixed) / kPerPoint : 0);
 }
