@@ -268,10 +268,7 @@ StatusOr<std::string> TiledEncoder::job(std::size_t t) const {
 namespace {
 
 Status write_bytes(const std::filesystem::path& path, std::string_view bytes) {
-  AtomicFileWriter file;
-  SSPC_RETURN_IF_ERROR(file.open(path));
-  SSPC_RETURN_IF_ERROR(file.write(bytes));
-  return file.commit();
+  return write_file_atomically(path, std::as_bytes(std::span(bytes.data(), bytes.size())));
 }
 
 std::string_view view(const MappedFile& file) {
