@@ -232,9 +232,9 @@ TEST(CliReliability, RenderCompareReportsImagePsnr) {
 TEST(CliReliability, AMemoryLimitEncodesTheBytesOfTheCloudInMemory) {
   test::TempDir dir;
   const std::string a = (dir.path() / "a.sspc").string(), b = (dir.path() / "b.sspc").string();
-  const CliRun limited = sspc(dir, "encode " + bunny() + " " + a + " -l 7 --memory-limit 0.5G --tile-points 9000", kLimit);
+  const CliRun limited = sspc(dir, "encode " + bunny() + " " + a + " -l 5 --memory-limit 0.5G --tile-points 9000", kLimit);
   ASSERT_EQ(limited.exit_code, 0) << limited.err;
-  const CliRun in_memory = sspc(dir, "encode " + bunny() + " " + b + " -l 7 --tile-points 9000", kLimit);
+  const CliRun in_memory = sspc(dir, "encode " + bunny() + " " + b + " -l 5 --tile-points 9000", kLimit);
   ASSERT_EQ(in_memory.exit_code, 0) << in_memory.err;
   EXPECT_EQ(slurp(a), slurp(b));
   EXPECT_EQ(test::count_files(dir.path()), 4u) << "a.sspc, b.sspc, stdout.txt and stderr.txt";
