@@ -39,13 +39,15 @@ def main(argv=None):
     sample = centred[rng.choice(len(centred), size=min(len(centred), 200_000), replace=False)]
     spacing = float(np.median(cKDTree(sample).query(sample, k=2)[0][:, 1])) * math.sqrt(len(sample) / len(centred))
     side = float(max(hi[0] - lo[0], hi[1] - lo[1]))
-    copies = math.ceil(total / (0.925 * len(source)))
+    # Enough copies however the thinning falls: each keeps at least 85% of the points but for
+    # chance (0.925 on average ran 1B points 0.03% short).
+    copies = math.ceil(total / (0.84 * len(source)))
     grid = math.ceil(math.sqrt(copies))
     with open(args.output, "wb") as out:
-        out.write((f"ply\nformat binary_little_endian 1.0\ncomment {copies} jittered copies of {args.source}\n"
+        out.write((f"ply\nformat binary_little_endian 1.0\ncomment jittered copies of {args.source} on a {grid}x{grid} grid\n"
                    f"element vertex {total}\nproperty float x\nproperty float y\nproperty float z\nend_header\n")
                   .encode())
-        written = 0
+        written = made = 0
         for c in range(copies):
             if written == total:
                 break
@@ -63,9 +65,10 @@ def main(argv=None):
             points = points[: total - written].astype("<f4")
             out.write(points.tobytes())
             written += len(points)
+            made += 1
         if written < total:
             sys.exit(f"make_large_cloud: wrote {written} of {total} points")
-    print(f"{args.output}: {total} points, {copies} copies of {len(source)} on a {grid}x{grid} grid, "
+    print(f"{args.output}: {total} points, {made} copies of {len(source)} on a {grid}x{grid} grid, "
           f"jitter {0.25 * spacing:.4g}")
 
 
