@@ -1,7 +1,10 @@
 #include "encoder/codeword_trim.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -51,48 +54,67 @@ EncodedModel without_codebook(const EncodedModel& model) {
   return out;
 }
 
-Codeword merge_cells(const Codeword& w, float step, int bits) {
+// A normal as the merge leaves a cell's only point's: normalised (up to an ulp from unit).
+Vec3f merged_normal(const Vec3f& sum, const Vec3f& first) {
+  return sum.norm() > 1e-6f ? Vec3f(sum.normalized()) : first;
+}
+
+// Merges the points of `w` that share a cell of the grid, in place.
+void merge_cells(Codeword& w, float step, int bits) {
+  const std::size_t n = w.points.size();
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells;
-  cells.reserve(w.points.size());
-  for (std::uint32_t i = 0; i < w.points.size(); ++i) {
+  cells.reserve(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
     const Vec3f& p = w.points[i];
     const std::uint64_t x = quantise_coordinate(p.x(), step, bits), y = quantise_coordinate(p.y(), step, bits),
                         z = quantise_coordinate(p.z(), step, bits);
     cells.emplace_back(x << 32 | y << 16 | z, i);
   }
-  // By cell, then by index: each run starts with the cell's first point; the output keeps the
-  // code word's order of first points.
+  // By cell, then by index: each run starts with the cell's first point.
   std::sort(cells.begin(), cells.end());
-  std::vector<std::pair<std::uint32_t, std::pair<std::size_t, std::size_t>>> runs;  // first, [begin, end)
-  for (std::size_t b = 0; b < cells.size();) {
+  const bool shared = std::adjacent_find(cells.begin(), cells.end(), [](const auto& a, const auto& b) {
+                        return a.first == b.first;
+                      }) != cells.end();
+  if (!shared) {  // one point a cell: the code word as it is, its normals normalised as below
+    for (Vec3f& normal : w.normals) normal = merged_normal(normal, normal);
+    return;
+  }
+  // The output keeps the code word's order of first points: each run found from its first
+  // point's index in one pass (a second sort of the runs cost about as much as the first).
+  constexpr auto kNone = static_cast<std::uint32_t>(-1);
+  Codeword out;
+  std::vector<std::uint32_t> run_at(n, kNone);  // a first point's index -> its run's start in `cells`
+  for (std::size_t b = 0; b < n;) {
     std::size_t e = b + 1;
-    while (e < cells.size() && cells[e].first == cells[b].first) ++e;
-    runs.push_back({cells[b].second, {b, e}});
+    while (e < n && cells[e].first == cells[b].first) ++e;
+    run_at[cells[b].second] = static_cast<std::uint32_t>(b);
     b = e;
   }
-  std::sort(runs.begin(), runs.end());
-  Codeword out;
-  for (const auto& [first, range] : runs) {
+  for (std::uint32_t first = 0; first < n; ++first) {
+    if (run_at[first] == kNone) continue;
+    const std::size_t begin = run_at[first];
+    std::size_t end = begin + 1;
+    while (end < n && cells[end].first == cells[begin].first) ++end;
     out.points.push_back(w.points[first]);
     if (!w.normals.empty()) {
       Vec3f sum = Vec3f::Zero();
-      for (std::size_t k = range.first; k < range.second; ++k) sum += w.normals[cells[k].second];
-      out.normals.push_back(sum.norm() > 1e-6f ? Vec3f(sum.normalized()) : w.normals[first]);
+      for (std::size_t k = begin; k < end; ++k) sum += w.normals[cells[k].second];
+      out.normals.push_back(merged_normal(sum, w.normals[first]));
     }
     if (!w.colours.empty()) {
       std::array<std::uint32_t, 3> sum{0, 0, 0};
-      for (std::size_t k = range.first; k < range.second; ++k) {
+      for (std::size_t k = begin; k < end; ++k) {
         const Rgb8& c = w.colours[cells[k].second];
         sum[0] += c.r;
         sum[1] += c.g;
         sum[2] += c.b;
       }
-      const auto n = static_cast<std::uint32_t>(range.second - range.first);
-      const auto mean = [n](std::uint32_t s) { return static_cast<std::uint8_t>((s + n / 2) / n); };
+      const auto count = static_cast<std::uint32_t>(end - begin);
+      const auto mean = [count](std::uint32_t s) { return static_cast<std::uint8_t>((s + count / 2) / count); };
       out.colours.push_back(Rgb8{mean(sum[0]), mean(sum[1]), mean(sum[2])});
     }
   }
-  return out;
+  w = std::move(out);
 }
 
 }  // namespace
@@ -128,7 +150,7 @@ void express_in_decoded_frames(EncodedModel& model, const ContainerHeader& h) {
 void merge_duplicate_cells(EncodedModel& model, const ContainerHeader& h) {
   const float step = position_step(h.patch_radius, h.position_bits);
   parallel_for(0, model.codebook.size(), 16,
-               [&](std::size_t c) { model.codebook[c] = merge_cells(model.codebook[c], step, h.position_bits); });
+               [&](std::size_t c) { merge_cells(model.codebook[c], step, h.position_bits); });
 }
 
 EncodedModel trim_unclaimed_points(const EncodedModel& model, const ContainerHeader& h,
