@@ -1,6 +1,7 @@
 // sspc decode IN.sspc OUT.ply|OUT.las: the whole model, one patch (--patch) or a box (--box), as
 // PLY or LAS by the output's extension (or --format on stdout), in the source's world coordinates.
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -13,6 +14,9 @@
 
 namespace sspc::cli {
 namespace {
+
+// Points a chunk of a streamed whole decode: about 40 MB of decoded cloud and as much of PLY.
+constexpr std::size_t kDecodeChunkPoints = std::size_t{1} << 20;
 
 struct DecodeCliOptions {
   std::string input;
@@ -52,49 +56,80 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   options.overlap = o.overlap;
   options.progress = progress.get();
 
-  StatusOr<PointCloud> cloud = invalid_argument("nothing decoded");
-  if (o.patch >= 0) {
-    cloud = model->decode_patch(static_cast<std::size_t>(o.patch), options);
-  } else if (!o.box.empty()) {
-    // The box is in world coordinates; the model answers in its local ones.
-    const Box3f world = *parse_box(o.box);  // validated by CLI11
-    const Vec3d origin = model->origin();
-    const Box3f local((world.min().cast<double>() - origin).cast<float>(),
-                      (world.max().cast<double>() - origin).cast<float>());
-    cloud = model->decode_box(local, options);
-  } else {
-    cloud = model->decode_all(options);
-  }
-  if (!cloud.ok()) return report_failure(cloud.status());  // names the file already
-  cloud->metadata = model->metadata();
-  progress.reset();  // finish the progress line before the summary
-  const double decode_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
   PlyWriteOptions ply;
   ply.encoding = o.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
   ply.comments.push_back("decoded by sspc from " +
                          (is_stdio(o.input) ? std::string(kStdinName)
                                             : std::filesystem::path(o.input).filename().string()));
-  const Status written = write_output(o.output, cloud_extension(o.output, o.format),
-                                      [&](const std::filesystem::path& path) { return write_point_cloud(*cloud, path, ply); });
-  if (!written.ok()) return report_failure(written);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const double rate = decode_seconds > 0 ? static_cast<double>(cloud->size()) / decode_seconds : 0;
+  const std::string extension = cloud_extension(o.output, o.format);
+  std::uint64_t points = 0;
+  double decode_seconds = 0;
+  const auto since_start = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  if (o.patch < 0 && o.box.empty() && format_from_extension("decoded" + extension) == PointCloudFormat::kPly) {
+    // A whole decode to PLY streams: chunks of whole patches go to the file as they are decoded,
+    // so a model larger than memory decodes too (the same bytes as the cloud written whole).
+    const Status written = write_output(o.output, extension, [&](const std::filesystem::path& path) {
+      SSPC_ASSIGN_OR_RETURN(PlyStreamWriter writer, PlyStreamWriter::open(path, ply));
+      bool any = false;
+      SSPC_RETURN_IF_ERROR(model->decode_chunks(kDecodeChunkPoints, [&](PointCloud&& chunk) {
+        any = true;
+        chunk.metadata = model->metadata();
+        return writer.write(chunk);
+      }, options));
+      if (!any) {  // a model without patches: the header alone, with the model's metadata
+        PointCloud empty;
+        empty.origin = model->origin();
+        empty.metadata = model->metadata();
+        SSPC_RETURN_IF_ERROR(writer.write(empty));
+      }
+      decode_seconds = since_start();
+      points = writer.points();
+      return writer.finish();
+    });
+    progress.reset();
+    if (!written.ok()) return report_failure(written);
+  } else {
+    StatusOr<PointCloud> cloud = invalid_argument("nothing decoded");
+    if (o.patch >= 0) {
+      cloud = model->decode_patch(static_cast<std::size_t>(o.patch), options);
+    } else if (!o.box.empty()) {
+      // The box is in world coordinates; the model answers in its local ones.
+      const Box3f world = *parse_box(o.box);  // validated by CLI11
+      const Vec3d origin = model->origin();
+      const Box3f local((world.min().cast<double>() - origin).cast<float>(),
+                        (world.max().cast<double>() - origin).cast<float>());
+      cloud = model->decode_box(local, options);
+    } else {
+      cloud = model->decode_all(options);  // LAS: its header's scale needs the whole cloud's bounds
+    }
+    if (!cloud.ok()) return report_failure(cloud.status());  // names the file already
+    cloud->metadata = model->metadata();
+    progress.reset();  // finish the progress line before the summary
+    decode_seconds = since_start();
+    points = cloud->size();
+    const Status written = write_output(o.output, extension, [&](const std::filesystem::path& path) {
+      return write_point_cloud(*cloud, path, ply);
+    });
+    if (!written.ok()) return report_failure(written);
+  }
+  const double seconds = since_start();
+  const double rate = decode_seconds > 0 ? static_cast<double>(points) / decode_seconds : 0;
 
   if (o.json) {
     Json json = json_report("decode");
     json["input"] = o.input;
     json["output"] = o.output;
-    json["points"] = cloud->size();
+    json["points"] = points;
     json["decode_seconds"] = decode_seconds;
     json["seconds"] = seconds;
     json["points_per_second"] = rate;
     print_json(json);
   } else if (!global.quiet) {
-    std::fprintf(stderr, "%s: %zu points in %.3f s (decode %.1f M points/s)\n",
-                 is_stdio(o.output) ? "stdout" : o.output.c_str(), cloud->size(), seconds, rate / 1e6);
+    std::fprintf(stderr, "%s: %llu points in %.3f s (decode %.1f M points/s)\n",
+                 is_stdio(o.output) ? "stdout" : o.output.c_str(), static_cast<unsigned long long>(points), seconds,
+                 rate / 1e6);
   }
   return kExitOk;
 }

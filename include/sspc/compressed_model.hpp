@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -123,6 +124,14 @@ class CompressedModel {
   StatusOr<PointCloud> decode_box(const Box3f& box, const DecodeOptions& options = {}) const;
   // The whole model, patches in file order; parallel and deterministic.
   StatusOr<PointCloud> decode_all(const DecodeOptions& options = {}) const;
+  // The same points handed to `sink` in chunks of whole patches, about `chunk_points` points
+  // each (whole patch blocks: FORMAT.md), in order: joined, the chunks are exactly decode_all()'s
+  // cloud, and each carries its origin. Memory stays about one chunk and the code-word blocks
+  // its patches use, whatever the model's size (a tiled model's tiles use their own code books).
+  // options.patch_of, when set, holds each chunk's patches when the sink sees it. Stops at the
+  // first error, the sink's included. kInvalidArgument for chunk_points == 0.
+  Status decode_chunks(std::size_t chunk_points, const std::function<Status(PointCloud&&)>& sink,
+                       const DecodeOptions& options = {}) const;
 
   // Every checksum (sections and blocks) and a decode of every block; with per-point attributes,
   // a whole decode (their streams are decoded against the geometry).

@@ -12,8 +12,10 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -103,6 +105,35 @@ Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
                  const PlyWriteOptions& options = {});
 // The PLY bytes, for tests and in-memory use.
 std::string encode_ply(const PointCloud& cloud, const PlyWriteOptions& options = {});
+
+// A PLY file written chunk by chunk, for a cloud that is never whole in memory (a large model's
+// decode: CompressedModel::decode_chunks). The chunks' points in order make the file that
+// write_ply() writes of them joined, byte for byte: the header (comments, CRS, origin) is the
+// first chunk's, the fields (normals, colours) the first non-empty chunk's, and every chunk must
+// have the same origin and fields. A header names its point count, so the body waits: in memory up
+// to `memory_bytes`, then in a hidden file beside `path`, copied after the header by finish()
+// (one more pass over the body's bytes on disk, not more memory). The file appears only when
+// finish() succeeds (a temporary file renamed over it); a writer dropped before then leaves
+// nothing behind.
+class PlyStreamWriter {
+ public:
+  static StatusOr<PlyStreamWriter> open(const std::filesystem::path& path, const PlyWriteOptions& options = {},
+                                        std::size_t memory_bytes = std::size_t{256} << 20);
+  PlyStreamWriter(PlyStreamWriter&&) noexcept;
+  PlyStreamWriter& operator=(PlyStreamWriter&&) noexcept;
+  ~PlyStreamWriter();
+
+  // kInvalidArgument for a chunk that fails validate() or whose origin or fields differ.
+  Status write(const PointCloud& chunk);
+  // Writes the file; kInvalidArgument when no chunk was written (there is no header to write).
+  Status finish();
+  std::uint64_t points() const;
+
+ private:
+  struct Impl;
+  explicit PlyStreamWriter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
 
 struct LasWriteOptions {
   // 0-3 or 6-8. Unset: the source LAS's format (its waveform packets dropped: 4 → 1, 5 → 3,

@@ -115,19 +115,26 @@ struct CompressedModel::Impl {
 
 namespace {
 
+// Blocks decoded up front for a whole decode (all of them, or one chunk's: decode_chunks), and
+// the model's cache for any other: a patch's neighbours may lie in a block of another chunk.
+// Entries are filled before the parallel decode reads them and not changed while it runs.
 class PreloadedSource final : public BlockSource {
  public:
+  explicit PreloadedSource(CachedSource fallback) : fallback_(std::move(fallback)) {}
   std::vector<std::shared_ptr<const DecodedPatches>> patch_blocks;
   std::vector<std::shared_ptr<const DecodedCodewords>> codeword_blocks;
 
   Status patches(std::size_t b, std::shared_ptr<const DecodedPatches>& out) override {
-    out = patch_blocks[b];
-    return Status();
+    out = b < patch_blocks.size() ? patch_blocks[b] : nullptr;
+    return out ? Status() : fallback_.patches(b, out);
   }
   Status codewords(std::size_t b, std::shared_ptr<const DecodedCodewords>& out) override {
-    out = codeword_blocks[b];
-    return Status();
+    out = b < codeword_blocks.size() ? codeword_blocks[b] : nullptr;
+    return out ? Status() : fallback_.codewords(b, out);
   }
+
+ private:
+  CachedSource fallback_;
 };
 
 // `src`'s points inside `box` (inclusive), with their attributes, appended to `dst`.
@@ -357,63 +364,115 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
 }
 
 StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) const {
+  PointCloud out = placed(PointCloud());  // a model without patches
+  std::vector<std::uint32_t> patch_of;
+  DecodeOptions one = options;
+  if (options.patch_of != nullptr) one.patch_of = &patch_of;
+  SSPC_RETURN_IF_ERROR(decode_chunks(std::numeric_limits<std::size_t>::max(), [&](PointCloud&& chunk) {
+    out = std::move(chunk);  // one chunk: every patch block
+    return Status();
+  }, one));
+  if (options.patch_of != nullptr) *options.patch_of = std::move(patch_of);
+  return out;
+}
+
+Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::function<Status(PointCloud&&)>& sink,
+                                      const DecodeOptions& options) const {
+  if (chunk_points == 0) return invalid_argument("decode_chunks: chunk_points must be positive");
   const codec::ContainerReader& reader = impl_->reader;
   const std::size_t p_blocks = reader.patch_blocks().size();
   const std::size_t c_blocks = reader.codebook_blocks().size();
-  PreloadedSource src;
+  // Patch blocks a chunk: its points over the source's points a patch, a block's patches.
+  const double per_block = static_cast<double>(impl_->patches_per_block()) *
+                           static_cast<double>(std::max<std::uint64_t>(1, reader.header().source_points)) /
+                           static_cast<double>(std::max<std::size_t>(1, patch_count()));
+  const std::size_t blocks_per_chunk =
+      static_cast<double>(chunk_points) >= per_block * static_cast<double>(p_blocks)
+          ? std::max<std::size_t>(1, p_blocks)
+          : std::max<std::size_t>(1, static_cast<std::size_t>(static_cast<double>(chunk_points) / per_block));
+  const bool colours = info().has_colours;
+  PreloadedSource src(impl_->cached());
   src.patch_blocks.resize(p_blocks);
   src.codeword_blocks.resize(c_blocks);
-  std::vector<Status> status(p_blocks + c_blocks);
-  parallel_for(0, p_blocks + c_blocks, 1, [&](std::size_t i) {
-    if (i < p_blocks) {
-      auto block = std::make_shared<DecodedPatches>();
-      status[i] = reader.read_patches(i, *block);
-      src.patch_blocks[i] = std::move(block);
-    } else {
-      auto block = std::make_shared<DecodedCodewords>();
-      status[i] = reader.read_codewords(i - p_blocks, *block);
-      src.codeword_blocks[i - p_blocks] = std::move(block);
-    }
-  });
-  SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
-  for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+  std::vector<std::size_t> held_codewords;  // the previous chunk's code-word blocks
 
   progress_begin(options.progress, "decoding", patch_count(), "patches");
-  std::vector<PointCloud> parts(p_blocks);
-  std::vector<std::vector<std::uint32_t>> part_patches(options.patch_of != nullptr ? p_blocks : 0);
-  std::vector<Status> part_status(p_blocks);
-  parallel_for(0, p_blocks, 1, [&](std::size_t b) {
-    PreloadedSource& shared = src;  // read-only from here on
-    std::vector<codec::NeighbourInstance> neighbours;
-    const DecodedPatches& block = *shared.patch_blocks[b];
-    for (std::uint32_t i = 0; i < block.count(); ++i) {
-      Status s = impl_->decode_one(shared, block.first + i, options.overlap, nullptr, neighbours,
-                                   parts[b]);
-      if (!s.ok()) {
-        part_status[b] = s;
-        return;
-      }
-      if (!part_patches.empty()) part_patches[b].resize(parts[b].size(), block.first + i);
+  for (std::size_t first = 0; first < p_blocks; first += blocks_per_chunk) {
+    const std::size_t last = std::min(p_blocks, first + blocks_per_chunk);
+    // The chunk's patch blocks, then the code-word blocks its patches use, decoded in parallel;
+    // the previous chunk's code-word blocks it does not use are released.
+    std::vector<Status> status(last - first);
+    parallel_for(first, last, 1, [&](std::size_t b) {
+      if (src.patch_blocks[b]) return;
+      auto block = std::make_shared<DecodedPatches>();
+      status[b - first] = reader.read_patches(b, *block);
+      src.patch_blocks[b] = std::move(block);
+    });
+    SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
+    for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+    std::vector<std::size_t> needed;
+    for (std::size_t b = first; b < last; ++b) {
+      for (const std::uint32_t c : src.patch_blocks[b]->codeword) needed.push_back(c / impl_->codewords_per_block());
     }
-    progress_advance(options.progress, block.count());
-  });
-  progress_end(options.progress);
-  for (const Status& s : part_status) SSPC_RETURN_IF_ERROR(s);
+    std::sort(needed.begin(), needed.end());
+    needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
+    for (const std::size_t c : held_codewords) {
+      if (!std::binary_search(needed.begin(), needed.end(), c)) src.codeword_blocks[c].reset();
+    }
+    status.assign(needed.size(), Status());
+    parallel_for(0, needed.size(), 1, [&](std::size_t i) {
+      const std::size_t c = needed[i];
+      if (c >= c_blocks || src.codeword_blocks[c]) return;  // out of range: decode_one's read reports it
+      auto block = std::make_shared<DecodedCodewords>();
+      status[i] = reader.read_codewords(c, *block);
+      src.codeword_blocks[c] = std::move(block);
+    });
+    SSPC_RETURN_IF_ERROR(impl_->mapped.check_intact());
+    for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+    held_codewords = std::move(needed);
 
-  std::size_t total = 0;
-  for (const PointCloud& p : parts) total += p.size();
-  PointCloud out;
-  out.reserve(total, reader.header().has_normals(), info().has_colours);
-  for (PointCloud& p : parts) {
-    out.append(p);
-    p = PointCloud();
+    std::vector<PointCloud> parts(last - first);
+    std::vector<std::vector<std::uint32_t>> part_patches(options.patch_of != nullptr ? last - first : 0);
+    status.assign(last - first, Status());
+    parallel_for(first, last, 1, [&](std::size_t b) {
+      PreloadedSource& shared = src;  // read-only from here on (misses go to the thread-safe cache)
+      std::vector<codec::NeighbourInstance> neighbours;
+      const DecodedPatches& block = *shared.patch_blocks[b];
+      PointCloud& part = parts[b - first];
+      for (std::uint32_t i = 0; i < block.count(); ++i) {
+        Status s = impl_->decode_one(shared, block.first + i, options.overlap, nullptr, neighbours, part);
+        if (!s.ok()) {
+          status[b - first] = s;
+          return;
+        }
+        if (!part_patches.empty()) part_patches[b - first].resize(part.size(), block.first + i);
+      }
+      progress_advance(options.progress, block.count());
+    });
+    for (const Status& s : status) SSPC_RETURN_IF_ERROR(s);
+    // The chunk before this one may hold the neighbours of this one's first patches; older
+    // patch blocks are released.
+    for (std::size_t b = first >= blocks_per_chunk ? first - blocks_per_chunk : 0; b < first; ++b) {
+      src.patch_blocks[b].reset();
+    }
+
+    std::size_t total = 0;
+    for (const PointCloud& p : parts) total += p.size();
+    PointCloud chunk;
+    chunk.reserve(total, reader.header().has_normals(), colours);
+    for (PointCloud& p : parts) {
+      chunk.append(p);
+      p = PointCloud();
+    }
+    if (options.patch_of != nullptr) {
+      options.patch_of->clear();
+      options.patch_of->reserve(total);
+      for (const auto& p : part_patches) options.patch_of->insert(options.patch_of->end(), p.begin(), p.end());
+    }
+    SSPC_RETURN_IF_ERROR(sink(placed(std::move(chunk))));
   }
-  if (options.patch_of != nullptr) {
-    options.patch_of->clear();
-    options.patch_of->reserve(total);
-    for (const auto& p : part_patches) options.patch_of->insert(options.patch_of->end(), p.begin(), p.end());
-  }
-  return placed(std::move(out));
+  progress_end(options.progress);
+  return Status();
 }
 
 Status CompressedModel::verify() const {

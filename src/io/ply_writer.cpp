@@ -2,7 +2,10 @@
 
 #include <bit>
 #include <charconv>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
+#include <string>
 
 #include "core/atomic_file.hpp"
 #include "core/byte_reader.hpp"
@@ -65,7 +68,7 @@ PlyEncoder::PlyEncoder(const PointCloud& cloud, const PlyWriteOptions& options)
   stride_ = (doubles_ ? 24u : 12u) + (normals_ ? 12u : 0u) + (colours_ ? 3u : 0u);
 }
 
-std::string PlyEncoder::header() const {
+std::string PlyEncoder::header(std::size_t count) const {
   std::string h = "ply\nformat ";
   switch (options_.encoding) {
     case PlyEncoding::kBinaryLittleEndian: h += "binary_little_endian"; break;
@@ -78,7 +81,7 @@ std::string PlyEncoder::header() const {
   if (!cloud_.metadata.crs_wkt.empty()) {
     h += "comment " + std::string(kPlyCrsComment) + one_line(cloud_.metadata.crs_wkt) + "\n";
   }
-  h += "element vertex " + std::to_string(cloud_.size()) + "\n";
+  h += "element vertex " + std::to_string(count) + "\n";
   if (doubles_) {
     h += "property double x\nproperty double y\nproperty double z\n";
   } else {
@@ -188,6 +191,102 @@ Status write_ply(const PointCloud& cloud, const std::filesystem::path& path,
     encoder.append_body(begin, std::min(cloud.size(), begin + kChunk), buffer);
     SSPC_RETURN_IF_ERROR(file.write(buffer));
   }
+  return file.commit();
+}
+
+struct PlyStreamWriter::Impl {
+  std::filesystem::path path;
+  PlyWriteOptions options;
+  std::size_t memory_bytes = 0;
+  bool started = false;
+  PointCloud layout;  // the header's: the first chunk's metadata and origin, and one point of the fields
+  bool fields_known = false;
+  std::uint64_t count = 0;
+  std::string body;
+  AtomicFileWriter spill;  // the body beyond memory_bytes, never committed
+  bool spilling = false;
+
+  Status fail(const std::string& what) const { return invalid_argument("writing " + path.string() + ": " + what); }
+};
+
+PlyStreamWriter::PlyStreamWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PlyStreamWriter::PlyStreamWriter(PlyStreamWriter&&) noexcept = default;
+PlyStreamWriter& PlyStreamWriter::operator=(PlyStreamWriter&&) noexcept = default;
+PlyStreamWriter::~PlyStreamWriter() = default;  // the spill's writer removes its file
+
+StatusOr<PlyStreamWriter> PlyStreamWriter::open(const std::filesystem::path& path, const PlyWriteOptions& options,
+                                                std::size_t memory_bytes) {
+  auto impl = std::make_unique<Impl>();
+  impl->path = path;
+  impl->options = options;
+  impl->memory_bytes = memory_bytes;
+  return PlyStreamWriter(std::move(impl));
+}
+
+std::uint64_t PlyStreamWriter::points() const { return impl_->count; }
+
+Status PlyStreamWriter::write(const PointCloud& chunk) {
+  Impl& m = *impl_;
+  if (Status s = chunk.validate(); !s.ok()) return s.with_context("writing " + m.path.string());
+  if (!m.started) {
+    m.started = true;
+    m.layout.metadata = chunk.metadata;
+    m.layout.origin = chunk.origin;
+  } else if (chunk.origin != m.layout.origin) {
+    return m.fail("a chunk with another origin than the first");
+  }
+  if (chunk.size() == 0) return Status();
+  const io::PlyEncoder encoder(chunk, m.options);
+  if (!m.fields_known) {
+    m.fields_known = true;
+    m.layout.positions.assign(1, Vec3f::Zero());
+    if (encoder.writes_normals()) m.layout.normals.assign(1, Vec3f::UnitZ());
+    if (encoder.writes_colours()) m.layout.colours.assign(1, Rgb8{});
+  } else if (encoder.writes_normals() != m.layout.has_normals() || encoder.writes_colours() != m.layout.has_colours()) {
+    return m.fail("a chunk with other fields (normals, colours) than the first");
+  }
+  encoder.append_body(0, chunk.size(), m.body);
+  m.count += chunk.size();
+  if (m.body.size() >= m.memory_bytes) {
+    if (!m.spilling) {
+      m.spilling = true;
+      std::string name = m.path.filename().string();
+      name.insert(0, 1, '.');  // a hidden file (GCC 12 misreads "." + name as an overflow)
+      name += ".body";
+      SSPC_RETURN_IF_ERROR(m.spill.open(m.path.parent_path() / name));
+    }
+    SSPC_RETURN_IF_ERROR(m.spill.write(m.body));
+    m.body.clear();
+  }
+  return Status();
+}
+
+Status PlyStreamWriter::finish() {
+  Impl& m = *impl_;
+  if (!m.started) return m.fail("no chunk was written");
+  AtomicFileWriter file;
+  SSPC_RETURN_IF_ERROR(file.open(m.path));
+  SSPC_RETURN_IF_ERROR(file.write(io::PlyEncoder(m.layout, m.options).header(m.count)));
+  if (m.spilling) {
+    SSPC_RETURN_IF_ERROR(m.spill.write(m.body));
+    SSPC_RETURN_IF_ERROR(m.spill.flush());
+    std::FILE* in = std::fopen(m.spill.temporary_path().c_str(), "rb");
+    if (in == nullptr) return io_error("writing " + m.path.string() + ": cannot read back its body: " + std::strerror(errno));
+    std::string block(std::size_t{16} << 20, '\0');
+    Status copied;
+    for (;;) {
+      const std::size_t n = std::fread(block.data(), 1, block.size(), in);
+      if (n > 0) copied = file.write(block.data(), n);
+      if (!copied.ok() || n < block.size()) break;
+    }
+    if (copied.ok() && std::ferror(in) != 0) copied = io_error("writing " + m.path.string() + ": reading back its body failed");
+    std::fclose(in);
+    m.spill.abandon();
+    SSPC_RETURN_IF_ERROR(copied);
+  } else {
+    SSPC_RETURN_IF_ERROR(file.write(m.body));
+  }
+  m.body = std::string();
   return file.commit();
 }
 

@@ -21,7 +21,11 @@ class PlyEncoder {
   // colours only when their arrays are exactly as long as the positions).
   PlyEncoder(const PointCloud& cloud, const PlyWriteOptions& options);
 
-  std::string header() const;
+  std::string header() const { return header(cloud_.size()); }
+  // The header of a file of `count` points with this cloud's fields (PlyStreamWriter).
+  std::string header(std::size_t count) const;
+  bool writes_normals() const { return normals_; }
+  bool writes_colours() const { return colours_; }
   // Appends the body for points [begin, end) to `out`.
   void append_body(std::size_t begin, std::size_t end, std::string& out) const;
 

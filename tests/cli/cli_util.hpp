@@ -21,10 +21,7 @@ struct CliRun {
   std::string err;
 };
 
-inline std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+inline std::string slurp(const std::filesystem::path& p) { return test::read_file(p); }
 
 // Runs `sspc ARGS` with stdout and stderr captured to files in `dir`; `shell_prefix` goes in
 // front of the command line (a `ulimit`, a `timeout`).

@@ -152,6 +152,56 @@ TEST(DecoderTest, PatchOfNamesEachPointsPatch) {
   EXPECT_EQ(box_of, expected);
 }
 
+// decode_chunks: whole patch blocks a chunk, in order; joined, decode_all's cloud and patches,
+// whatever the chunk size (one block, a few, more than the model); the sink's error stops it.
+TEST(DecoderTest, ChunksJoinedAreDecodeAll) {
+  Fixture f = make_fixture(default_shape(), eight_patch_blocks());
+  std::vector<std::uint32_t> all_of;
+  DecodeOptions whole;
+  whole.patch_of = &all_of;
+  ASSERT_TRUE(f.compressed.decode_all(whole).ok());
+  const std::size_t blocks = (f.compressed.patch_count() + 7) / 8;
+  ASSERT_GT(blocks, 4u);
+  for (const std::size_t chunk_points : {std::size_t{1}, f.all.size() / 5, f.all.size() * 2}) {
+    PointCloud joined;
+    std::vector<std::uint32_t> joined_of, of;
+    DecodeOptions options;
+    options.patch_of = &of;
+    std::size_t chunks = 0;
+    const Status s = f.compressed.decode_chunks(chunk_points, [&](PointCloud&& chunk) {
+      ++chunks;
+      EXPECT_EQ(of.size(), chunk.size());
+      // Whole patches: a chunk starts where a patch starts.
+      EXPECT_EQ(of.empty() ? 0 : f.offsets[of.front()], joined.size());
+      joined_of.insert(joined_of.end(), of.begin(), of.end());
+      joined.append(chunk);
+      return Status();
+    }, options);
+    ASSERT_TRUE(s.ok()) << s.to_string();
+    expect_same(joined, f.all, "chunks of " + std::to_string(chunk_points));
+    EXPECT_EQ(joined_of, all_of);
+    if (chunk_points == 1) {
+      EXPECT_EQ(chunks, blocks);  // one patch block a chunk
+    }
+    if (chunk_points > f.all.size()) {
+      EXPECT_EQ(chunks, 1u);
+    }
+    if (chunk_points == f.all.size() / 5) {
+      EXPECT_GE(chunks, 3u);
+      EXPECT_LE(chunks, 8u);
+    }
+  }
+  std::size_t calls = 0;
+  const Status stopped = f.compressed.decode_chunks(1, [&](PointCloud&&) {
+    ++calls;
+    return corrupt("the sink's own error");
+  });
+  EXPECT_EQ(calls, 1u);
+  EXPECT_EQ(stopped.message(), "the sink's own error");
+  EXPECT_EQ(f.compressed.decode_chunks(0, [](PointCloud&&) { return Status(); }).code(),
+            StatusCode::kInvalidArgument);
+}
+
 TEST(DecoderTest, OverlapModeKeepsEveryInstanceWhole) {
   Fixture f = make_fixture(default_shape(), eight_patch_blocks());
   std::size_t expected = 0;

@@ -52,12 +52,7 @@ std::string describe(const PointCloud& c) {
   return out;
 }
 
-std::string read_file(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::read_file;
 
 // (b) A committed file decodes to its committed points.
 void expect_decodes_to_committed_points(const std::string& version) {

@@ -100,5 +100,72 @@ TEST(PlyWriter, WritePlyIntoAMissingDirectoryFails) {
   EXPECT_EQ(s.code(), StatusCode::kIoError) << s.to_string();
 }
 
+// PlyStreamWriter: chunks joined give write_ply's bytes of the whole cloud (header from the first
+// chunk, fields from the first non-empty one), with the body in memory or spilled beside the
+// output (memory_bytes 1: every chunk spills), and no file left but the output.
+TEST(PlyStreamWriter, ChunksGiveTheBytesOfTheWholeCloud) {
+  PointCloud cloud = test::sample_cloud(100, true, true);
+  cloud.origin = Vec3d(1000.5, -2, 3);
+  cloud.metadata.comments = {"scanned by a test"};
+  cloud.metadata.crs_wkt = "LOCAL_CS[\"test\"]";
+  for (const PlyEncoding encoding : {PlyEncoding::kBinaryLittleEndian, PlyEncoding::kAscii}) {
+    for (const std::size_t memory : {std::size_t{1} << 20, std::size_t{1}}) {
+      test::TempDir dir;
+      PlyWriteOptions options;
+      options.encoding = encoding;
+      options.comments = {"written in chunks"};
+      ASSERT_TRUE(write_ply(cloud, dir.path() / "whole.ply", options).ok());
+      auto writer = PlyStreamWriter::open(dir.path() / "chunks.ply", options, memory);
+      ASSERT_TRUE(writer.ok()) << writer.status().to_string();
+      const std::size_t cuts[] = {0, 0, 7, 50, 100};
+      for (std::size_t k = 0; k + 1 < std::size(cuts); ++k) {
+        PointCloud chunk;
+        chunk.origin = cloud.origin;
+        chunk.metadata = cloud.metadata;
+        for (std::size_t i = cuts[k]; i < cuts[k + 1]; ++i) {
+          chunk.positions.push_back(cloud.positions[i]);
+          chunk.normals.push_back(cloud.normals[i]);
+          chunk.colours.push_back(cloud.colours[i]);
+        }
+        ASSERT_TRUE(writer->write(chunk).ok());
+        if (memory == 1 && k == 1) {
+          EXPECT_EQ(test::count_files(dir.path()), 2u) << "whole.ply and the spilled body";
+        }
+      }
+      EXPECT_EQ(writer->points(), 100u);
+      EXPECT_EQ(test::count_files(dir.path()), memory == 1 ? 2u : 1u);
+      ASSERT_TRUE(writer->finish().ok());
+      EXPECT_EQ(test::read_file(dir.path() / "chunks.ply"), test::read_file(dir.path() / "whole.ply"))
+          << "memory " << memory;
+      EXPECT_EQ(test::count_files(dir.path()), 2u) << "no body left behind";
+    }
+  }
+}
+
+TEST(PlyStreamWriter, ChunksThatDisagreeFailAndNothingIsLeftBehind) {
+  test::TempDir dir;
+  const auto path = dir.path() / "out.ply";
+  {
+    auto writer = PlyStreamWriter::open(path, {}, 1);
+    ASSERT_TRUE(writer.ok());
+    ASSERT_TRUE(writer->write(test::sample_cloud(10, true, false)).ok());
+    const Status fields = writer->write(test::sample_cloud(10, false, false));
+    EXPECT_EQ(fields.code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(fields.message().find("out.ply"), std::string::npos) << fields.to_string();
+    PointCloud moved = test::sample_cloud(10, true, false);
+    moved.origin = Vec3d(1, 0, 0);
+    EXPECT_EQ(writer->write(moved).code(), StatusCode::kInvalidArgument);
+    PointCloud invalid = test::sample_cloud(4, true, false);
+    invalid.normals.pop_back();
+    EXPECT_FALSE(writer->write(invalid).ok());
+    EXPECT_EQ(test::count_files(dir.path()), 1u);  // the spilled body
+  }  // dropped before finish(): nothing written, the body removed
+  EXPECT_EQ(test::count_files(dir.path()), 0u);
+  auto empty = PlyStreamWriter::open(path);
+  ASSERT_TRUE(empty.ok());
+  EXPECT_EQ(empty->finish().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(test::count_files(dir.path()), 0u);
+}
+
 }  // namespace
 }  // namespace sspc
