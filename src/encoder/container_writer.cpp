@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include <fcntl.h>
 #include <zstd.h>
 
 #include "core/atomic_file.hpp"
@@ -349,6 +350,14 @@ class CodebookSpill {
     if (std::fseek(file_, static_cast<long>(offset), SEEK_SET) != 0 || std::fread(in.data(), 1, size, file_) != size) {
       return io_error(path_.string() + ": cannot read back what was written");
     }
+    // Each record is read once: its disk space is given back now, so that only the code books of
+    // tiles not yet written take disk. Untrimmed code words hold whole spheres: 1B points had
+    // spilled 13.5 GB 23 minutes into their encode, on the way past the disk's free 35 GB. Where
+    // the file system cannot punch holes, the file stays whole.
+#ifdef FALLOC_FL_PUNCH_HOLE
+    (void)::fallocate(::fileno(file_), FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE, static_cast<off_t>(offset),
+                      static_cast<off_t>(size));
+#endif
     const char* at = in.data();
     auto take = [&at](void* to, std::size_t n) {
       if (n > 0) std::memcpy(to, at, n);
