@@ -375,6 +375,32 @@ being the patch's region centre. Raises IndexError out of range.)doc")
           "The whole model as a PointCloud, patches in file order; parallel and deterministic. The decoded "
           "buffers become the PointCloud's without a copy. progress: see encode().")
       .def(
+          "decode_chunks",
+          [](const CompressedModel& model, const py::object& sink, std::size_t chunk_points, bool overlap,
+             int threads) {
+            ThreadLimit limit(threads);
+            std::unique_ptr<py::error_already_set> raised;
+            const Status s = without_gil([&] {
+              return model.decode_chunks(chunk_points, [&](PointCloud&& chunk) {
+                py::gil_scoped_acquire gil;
+                try {
+                  sink(py::cast(std::move(chunk)));
+                } catch (py::error_already_set& e) {
+                  raised = std::make_unique<py::error_already_set>(std::move(e));
+                  return Status(StatusCode::kCancelled, "the sink raised");
+                }
+                return Status();
+              }, decode_options(overlap));
+            });
+            if (raised) throw std::move(*raised);
+            check(s);
+          },
+          py::arg("sink"), py::kw_only(), py::arg("chunk_points") = std::size_t{1} << 20, py::arg("overlap") = false,
+          py::arg("threads") = 0,
+          "decode_all()'s points handed to sink(PointCloud) in chunks of whole patches, about chunk_points each, "
+          "in order: for a model whose decoded cloud does not fit in memory (write each chunk on, or reduce it). "
+          "Memory stays about one chunk. What the sink raises stops the decode and is raised here.")
+      .def(
           "verify", [](const CompressedModel& model) { check(without_gil([&] { return model.verify(); })); },
           "Checks every checksum and decodes every block; raises RuntimeError (\"corrupt: ...\") on the first "
           "problem.")

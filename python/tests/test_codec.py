@@ -70,6 +70,23 @@ def test_patches_concatenate_to_the_whole_decode(bunny_model):
     np.testing.assert_array_equal(np.concatenate(parts), whole.positions)
 
 
+def test_chunks_concatenate_to_the_whole_decode(bumps):
+    # Small patches: several patch blocks (64 patches each), the unit a chunk is made of.
+    model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, patch_points=12))
+    assert model.patch_count > 3 * 64
+    whole = model.decode_all()
+    chunks = []
+    model.decode_chunks(chunks.append, chunk_points=len(whole) // 4)
+    assert 3 <= len(chunks) <= 8
+    np.testing.assert_array_equal(np.concatenate([c.positions for c in chunks]), whole.positions)
+
+    def stop(chunk):
+        raise KeyError("enough")
+
+    with pytest.raises(KeyError, match="enough"):
+        model.decode_chunks(stop, chunk_points=1)
+
+
 def test_patch_record_maps_the_code_word_onto_the_patch(bunny_model):
     record = bunny_model.patch(3)
     r, t = record["rotation"], record["translation"]
