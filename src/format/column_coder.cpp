@@ -33,11 +33,21 @@ std::int64_t det3(std::int64_t a, std::int64_t b, std::int64_t c, std::int64_t d
   return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
 }
 
+// A column's occupied cells in the window's rows above the current one (dy = −3..−1): their
+// count, Σdy, Σdy², Σz, Σdy·z and the least and greatest z (lo > hi when none).
+struct ColumnSums {
+  std::int64_t n = 0, sy = 0, syy = 0, sz = 0, syz = 0;
+  std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
+};
+
 // The last four rows of the rectangle: occupancy, lowest height, and whether a column holds more
-// than one point. Row r lives in slot r mod 4; columns are padded by 2 on each side.
+// than one point. Row r lives in slot r mod 4; columns are padded by 2 on each side. When a row
+// starts, each column's sums over the window's rows above it are taken once (padded by the
+// window's width on each side, zero there), so that a prediction adds seven columns' sums
+// instead of visiting up to 21 cells: the decoder spent 30% of a whole decode in the prediction.
 class Rows {
  public:
-  explicit Rows(std::uint32_t width) : width_(width), zeros_(width + 4, 0) {
+  explicit Rows(std::uint32_t width) : width_(width), zeros_(width + 4, 0), sums_(width + 2 * kWindowColumns) {
     for (auto& row : occupied_) row.assign(width + 4, 0);
     for (auto& row : lowest_) row.assign(width, 0);
     for (auto& row : stacked_) row.assign(width, 0);
@@ -46,7 +56,28 @@ class Rows {
     const std::size_t s = slot(row);
     std::fill(occupied_[s].begin(), occupied_[s].end(), 0);
     std::fill(stacked_[s].begin(), stacked_[s].end(), 0);
+    std::fill(sums_.begin(), sums_.end(), ColumnSums{});
+    for (std::int64_t dy = -kWindowRows; dy < 0; ++dy) {
+      if (row + dy < 0) continue;
+      const std::uint8_t* occupied = occupied_row(row + dy) + 2;
+      const std::uint32_t* lowest = lowest_row(row + dy);
+      for (std::size_t c = 0; c < width_; ++c) {
+        if (occupied[c] == 0) continue;
+        ColumnSums& sum = sums_[c + kWindowColumns];
+        const std::uint32_t z = lowest[c];
+        const auto zi = static_cast<std::int64_t>(z);
+        ++sum.n;
+        sum.sy += dy;
+        sum.syy += dy * dy;
+        sum.sz += zi;
+        sum.syz += dy * zi;
+        sum.lo = std::min(sum.lo, z);
+        sum.hi = std::max(sum.hi, z);
+      }
+    }
   }
+  // Column c's sums (c may lie up to the window's width outside the row).
+  const ColumnSums& sums(std::int64_t c) const { return sums_[static_cast<std::size_t>(c + kWindowColumns)]; }
   bool stacked(std::int64_t row, std::int64_t column) const {
     if (row < 0 || column < 0) return false;
     return stacked_[slot(row)][static_cast<std::size_t>(column)] != 0;
@@ -70,6 +101,7 @@ class Rows {
   std::array<std::vector<std::uint8_t>, 4> occupied_;
   std::array<std::vector<std::uint32_t>, 4> lowest_;
   std::array<std::vector<std::uint8_t>, 4> stacked_;
+  std::vector<ColumnSums> sums_;
 };
 
 // Bit k of the context is the template's cell k, read from the padded rows without bounds
@@ -102,29 +134,36 @@ std::size_t quarter(std::int64_t t, std::int64_t den) { return static_cast<std::
 Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits) {
   std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
   std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
-  const std::int64_t first = std::max<std::int64_t>(0, c - kWindowColumns);
-  for (std::int64_t dy = -kWindowRows; dy <= 0; ++dy) {
-    if (r + dy < 0) continue;
-    const std::uint8_t* occupied = rows.occupied_row(r + dy) + 2;
-    const std::uint32_t* lowest = rows.lowest_row(r + dy);
-    const std::int64_t last = dy == 0 ? c - 1 : std::min<std::int64_t>(rows.width() - 1, c + kWindowColumns);
-    for (std::int64_t cc = first; cc <= last; ++cc) {
-      if (occupied[cc] == 0) continue;
-      const std::int64_t dx = cc - c;
-      const std::uint32_t z = lowest[cc];
-      const auto zi = static_cast<std::int64_t>(z);
-      ++n;
-      sx += dx;
-      sy += dy;
-      sz += zi;
-      sxx += dx * dx;
-      sxy += dx * dy;
-      syy += dy * dy;
-      sxz += dx * zi;
-      syz += dy * zi;
-      lo = std::min(lo, z);
-      hi = std::max(hi, z);
-    }
+  // The rows above: each column's sums, its offset dx = k applied here.
+  for (std::int64_t k = -kWindowColumns; k <= kWindowColumns; ++k) {
+    const ColumnSums& s = rows.sums(c + k);
+    n += s.n;
+    sx += k * s.n;
+    sxx += k * k * s.n;
+    sy += s.sy;
+    syy += s.syy;
+    sxy += k * s.sy;
+    sz += s.sz;
+    sxz += k * s.sz;
+    syz += s.syz;
+    lo = std::min(lo, s.lo);
+    hi = std::max(hi, s.hi);
+  }
+  // The current row (dy = 0): the columns before this one.
+  const std::uint8_t* occupied = rows.occupied_row(r) + 2;
+  const std::uint32_t* lowest = rows.lowest_row(r);
+  for (std::int64_t cc = std::max<std::int64_t>(0, c - kWindowColumns); cc < c; ++cc) {
+    if (occupied[cc] == 0) continue;
+    const std::int64_t dx = cc - c;
+    const std::uint32_t z = lowest[cc];
+    const auto zi = static_cast<std::int64_t>(z);
+    ++n;
+    sx += dx;
+    sxx += dx * dx;
+    sz += zi;
+    sxz += dx * zi;
+    lo = std::min(lo, z);
+    hi = std::max(hi, z);
   }
   if (n == 0) return {previous, 0, 1, 0};
   const std::size_t spread = std::min<std::size_t>(static_cast<std::size_t>(std::bit_width(hi - lo)), 4);
