@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "core/atomic_file.hpp"
 #include "core/byte_reader.hpp"
@@ -202,7 +203,10 @@ struct PlyStreamWriter::Impl {
   PointCloud layout;  // the header's: the first chunk's metadata and origin, and one point of the fields
   bool fields_known = false;
   std::uint64_t count = 0;
-  std::string body;
+  // The body's chunks as encoded, each its own string: one growing string re-copied itself as it
+  // doubled (memmove and memset were 15% of autzen's streamed decode).
+  std::vector<std::string> body;
+  std::size_t body_bytes = 0;
   AtomicFileWriter spill;  // the body beyond memory_bytes, never committed
   bool spilling = false;
 
@@ -245,9 +249,10 @@ Status PlyStreamWriter::write(const PointCloud& chunk) {
   } else if (encoder.writes_normals() != m.layout.has_normals() || encoder.writes_colours() != m.layout.has_colours()) {
     return m.fail("a chunk with other fields (normals, colours) than the first");
   }
-  encoder.append_body(0, chunk.size(), m.body);
+  encoder.append_body(0, chunk.size(), m.body.emplace_back());
+  m.body_bytes += m.body.back().size();
   m.count += chunk.size();
-  if (m.body.size() >= m.memory_bytes) {
+  if (m.body_bytes >= m.memory_bytes) {
     if (!m.spilling) {
       m.spilling = true;
       std::string name = m.path.filename().string();
@@ -255,8 +260,9 @@ Status PlyStreamWriter::write(const PointCloud& chunk) {
       name += ".body";
       SSPC_RETURN_IF_ERROR(m.spill.open(m.path.parent_path() / name));
     }
-    SSPC_RETURN_IF_ERROR(m.spill.write(m.body));
+    for (const std::string& part : m.body) SSPC_RETURN_IF_ERROR(m.spill.write(part));
     m.body.clear();
+    m.body_bytes = 0;
   }
   return Status();
 }
@@ -268,7 +274,7 @@ Status PlyStreamWriter::finish() {
   SSPC_RETURN_IF_ERROR(file.open(m.path));
   SSPC_RETURN_IF_ERROR(file.write(io::PlyEncoder(m.layout, m.options).header(m.count)));
   if (m.spilling) {
-    SSPC_RETURN_IF_ERROR(m.spill.write(m.body));
+    for (const std::string& part : m.body) SSPC_RETURN_IF_ERROR(m.spill.write(part));
     SSPC_RETURN_IF_ERROR(m.spill.flush());
     std::FILE* in = std::fopen(m.spill.temporary_path().c_str(), "rb");
     if (in == nullptr) return io_error("writing " + m.path.string() + ": cannot read back its body: " + std::strerror(errno));
@@ -284,9 +290,9 @@ Status PlyStreamWriter::finish() {
     m.spill.abandon();
     SSPC_RETURN_IF_ERROR(copied);
   } else {
-    SSPC_RETURN_IF_ERROR(file.write(m.body));
+    for (const std::string& part : m.body) SSPC_RETURN_IF_ERROR(file.write(part));
   }
-  m.body = std::string();
+  m.body.clear();
   return file.commit();
 }
 
