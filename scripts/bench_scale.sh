@@ -18,7 +18,8 @@
 # Writes docs/results/scale_bench.csv and its table in docs/RESULTS.md ("Scale").
 #
 # Usage: scripts/bench_scale.sh [DATA_DIR]     (default ../shared/data)
-#   SIZES="10M 100M"   LIMIT=2G   LEVEL=5   WORKERS="1 2 4"   ROUNDS=3   DASK_TILE_POINTS=1000000
+#   SIZES="10M 100M" (SIZES= none; 1G needs about 40 GB of disk and 2 hours)   LIMIT=2G   LEVEL=5
+#   WORKERS="1 2 4"   ROUNDS=3   DASK_TILE_POINTS=1000000
 #   WORK=/tmp/sspc_bench_scale (generated clouds are kept there between runs; a size whose cloud
 #   and spill would not fit the free disk is skipped and named)
 # Installs what it needs (a release build with the Python module, Debian's time, python3-numpy,
@@ -26,7 +27,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 data="${1:-../shared/data}"
-SIZES="${SIZES:-10M 100M}"
+SIZES="${SIZES-10M 100M}"  # set but empty (SIZES=) skips the generated clouds
 LIMIT="${LIMIT:-2G}"
 LEVEL="${LEVEL:-5}"
 WORKERS="${WORKERS:-1 2 4}"
