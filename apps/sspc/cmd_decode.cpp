@@ -72,18 +72,10 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
     // so a model larger than memory decodes too (the same bytes as the cloud written whole).
     const Status written = write_output(o.output, extension, [&](const std::filesystem::path& path) {
       SSPC_ASSIGN_OR_RETURN(PlyStreamWriter writer, PlyStreamWriter::open(path, ply));
-      bool any = false;
       SSPC_RETURN_IF_ERROR(model->decode_chunks(kDecodeChunkPoints, [&](PointCloud&& chunk) {
-        any = true;
         chunk.metadata = model->metadata();
         return writer.write(chunk);
       }, options));
-      if (!any) {  // a model without patches: the header alone, with the model's metadata
-        PointCloud empty;
-        empty.origin = model->origin();
-        empty.metadata = model->metadata();
-        SSPC_RETURN_IF_ERROR(writer.write(empty));
-      }
       decode_seconds = since_start();
       points = writer.points();
       return writer.finish();

@@ -364,7 +364,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
 }
 
 StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) const {
-  PointCloud out = placed(PointCloud());  // a model without patches
+  PointCloud out;
   std::vector<std::uint32_t> patch_of;
   DecodeOptions one = options;
   if (options.patch_of != nullptr) one.patch_of = &patch_of;
@@ -472,6 +472,10 @@ Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::funct
     SSPC_RETURN_IF_ERROR(sink(placed(std::move(chunk))));
   }
   progress_end(options.progress);
+  if (p_blocks == 0) {  // a model without patches: one empty chunk, with the origin
+    if (options.patch_of != nullptr) options.patch_of->clear();
+    return sink(placed(PointCloud()));
+  }
   return Status();
 }
 
