@@ -36,7 +36,7 @@ inline constexpr std::uint32_t kNoTile = std::numeric_limits<std::uint32_t>::max
 struct TilePlan {
   Box3f bounds;  // of every point
   int depth = kTileGridDepth;
-  std::vector<Box3f> boxes;           // the leaves, depth-first (lower half first)
+  std::vector<Box3f> boxes;           // the leaves, swept along the longest axis (tiling.cpp)
   std::vector<std::uint64_t> points;  // each leaf's point count
   std::vector<std::uint32_t> tile_of_cell;  // per grid cell: its leaf, or kNoTile
 

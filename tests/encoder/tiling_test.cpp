@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -36,12 +38,42 @@ TEST(Tiling, LeavesPartitionTheCloudAndHoldAtMostTheLimit) {
     EXPECT_LE(plan.points[t], 3000u);
     EXPECT_GT(plan.points[t], 0u);
   }
-  // Leaves in depth-first order: each box starts at or after the previous in Morton order, and
-  // boxes do not overlap beyond their faces.
-  for (std::size_t t = 1; t < plan.size(); ++t) {
-    EXPECT_LT(plan.boxes[t - 1].intersection(plan.boxes[t]).volume(), 1e-9f);
+  // Boxes do not overlap beyond their faces.
+  for (std::size_t t = 0; t < plan.size(); ++t) {
+    for (std::size_t u = t + 1; u < plan.size(); ++u) {
+      EXPECT_LT(plan.boxes[t].intersection(plan.boxes[u]).volume(), 1e-9f);
+    }
   }
   EXPECT_EQ(plan_tiles(cloud.positions, 1u << 30).size(), 1u);  // one tile: the bounds
+}
+
+// A tiled encode holds a tile's code book until the last tile that can reach it is encoded
+// (encoder/container_writer.cpp), so that wait must not grow with the cloud: on a surface of n
+// tiles, a tile's last touching neighbour comes within about 2√n tiles of it. In the splits'
+// depth-first order this terrain's worst wait is over half its 128 tiles.
+TEST(Tiling, SweptLeavesWaitForFewTiles) {
+  std::vector<Vec3f> points;
+  for (int y = 0; y < 300; ++y) {
+    for (int x = 0; x < 400; ++x) {
+      points.emplace_back(0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y),
+                          0.05f * std::sin(0.05f * static_cast<float>(x + y)));
+    }
+  }
+  const TilePlan plan = plan_tiles(points, 1000);
+  ASSERT_GE(plan.size(), 100u);
+  std::size_t worst = 0;
+  for (std::size_t t = 0; t < plan.size(); ++t) {
+    // Touching with a margin of a tenth of the smallest tile side, as a patch's reach is.
+    const Box3f grown(plan.boxes[t].min() - Vec3f::Constant(0.01f), plan.boxes[t].max() + Vec3f::Constant(0.01f));
+    for (std::size_t u = t + 1; u < plan.size(); ++u) {
+      if (grown.intersects(plan.boxes[u])) worst = std::max(worst, u - t);
+    }
+    if (t > 0) {
+      EXPECT_LE(plan.boxes[t - 1].min().x(), plan.boxes[t].min().x());  // swept along x, the longest
+    }
+  }
+  std::printf("%zu tiles, worst wait %zu tiles\n", plan.size(), worst);
+  EXPECT_LE(static_cast<double>(worst), 2 * std::sqrt(static_cast<double>(plan.size())) + 2);
 }
 
 // The grid bounds a leaf's size: a cell of one grid cell holding more than the limit stays one
