@@ -12,7 +12,7 @@ int main() {
   auto stats = sspc::encode(*cloud, "bunny.sspc", {.level = 5});  // EncodeStats: bits_per_point, ...
   auto model = sspc::CompressedModel::open("bunny.sspc");       // random access from here on
   auto part = model->decode_box(sspc::Box3f(sspc::Vec3f(-0.05f, 0.05f, -0.05f), sspc::Vec3f(0, 0.12f, 0.05f)));
-  sspc::RenderOptions view{.width = 512, .height = 512, .camera = sspc::frame_bounds(model->info().bounds)};
+  sspc::FrameOptions view{.width = 512, .height = 512, .camera = sspc::frame_bounds(model->info().bounds)};
   auto image = sspc::render_compressed(*model, view);          // decodes only the bricks rays reach
   return stats.ok() && part.ok() && image.ok() && sspc::write_png(*image, "bunny.png").ok() ? 0 : 1;
 }

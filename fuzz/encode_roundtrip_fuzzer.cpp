@@ -96,7 +96,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   SSPC_FUZZ_CHECK(decoded->has_normals() == options.store_normals);
   SSPC_FUZZ_CHECK(model->info().source_points == cloud.size());
 
-  sspc::RenderOptions render;
+  sspc::FrameOptions render;
   render.width = 8;
   render.height = 8;
   render.camera = sspc::frame_bounds(model->info().bounds, 40);

@@ -30,8 +30,8 @@ namespace {
 
 constexpr int kSide = 12;  // pixels: enough rays to cross every part of a small scene
 
-sspc::RenderOptions options_for(const sspc::Box3f& bounds) {
-  sspc::RenderOptions o;
+sspc::FrameOptions options_for(const sspc::Box3f& bounds) {
+  sspc::FrameOptions o;
   o.width = kSide;
   o.height = kSide;
   o.camera = sspc::frame_bounds(bounds, 40);
@@ -53,8 +53,9 @@ void render_model(const std::string& bytes) {
   auto model = sspc::CompressedModel::from_bytes(bytes);
   if (!model.ok()) return;  // the decoder's own target covers what it refuses
   // Half the inputs with a budget of a few bricks, so that eviction runs too.
-  auto scene = sspc::RenderScene::from_compressed(std::make_shared<const sspc::CompressedModel>(std::move(*model)), 1.5f,
-                                                  bytes.size() % 2 == 0 ? sspc::kDefaultMemoryBudget : 64 << 10);
+  sspc::SceneOptions options;
+  options.memory_budget_bytes = bytes.size() % 2 == 0 ? sspc::kDefaultMemoryBudget : 64 << 10;
+  auto scene = sspc::RenderScene::from_compressed(std::make_shared<const sspc::CompressedModel>(std::move(*model)), options);
   if (!scene.ok()) {
     SSPC_FUZZ_CHECK(!scene.status().message().empty());
     return;
@@ -98,8 +99,8 @@ void render_cloud(std::string_view text, std::size_t seed) {
     return;
   }
   const bool paged = seed % 4 == 3;
-  auto scene = paged ? sspc::RenderScene::from_point_cloud_paged(*cloud, 1.5f, 1 << 16, scratch())
-                     : sspc::RenderScene::from_point_cloud(*cloud, 1.5f);
+  auto scene = paged ? sspc::RenderScene::from_point_cloud_paged(*cloud, scratch(), {.memory_budget_bytes = 1 << 16})
+                     : sspc::RenderScene::from_point_cloud(*cloud);
   if (!scene.ok()) {
     SSPC_FUZZ_CHECK(!scene.status().message().empty());
     return;

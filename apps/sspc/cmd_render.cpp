@@ -163,7 +163,7 @@ bool parse_size(const std::string& text, int& w, int& h) {
 }
 
 int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
-  RenderOptions options;
+  FrameOptions options;
   if (!parse_size(o.size, options.width, options.height)) {
     return report_failure(internal_error("--size passed its validator but does not parse: " + o.size));
   }
@@ -211,7 +211,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   }
   auto progress = make_progress(global);
   options.shade = o.shade;
-  options.bandwidth = o.bandwidth;
+  SceneOptions scene_options;
+  scene_options.bandwidth = o.bandwidth;
+  scene_options.progress = progress.get();
 
   // The scene, built once for every frame.
   StatusOr<std::unique_ptr<RenderScene>> scene = invalid_argument("no scene");
@@ -221,10 +223,9 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     if (!model.ok()) return report_failure(model.status());
     progress_stages(progress.get(), 2);  // the scene's bricks, the image's rows
     points = model->info().source_points;
-    const std::uint64_t budget =
-        o.budget_mib > 0 ? static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024) : kDefaultMemoryBudget;
-    scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(model).value()), o.bandwidth,
-                                         budget, progress.get());
+    if (o.budget_mib > 0) scene_options.memory_budget_bytes = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
+    scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(model).value()),
+                                         scene_options);
   } else {
     ReadOptions read;
     read.progress = progress.get();
@@ -238,12 +239,12 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input));
     points = cloud->size();
     if (o.budget_mib > 0) {
-      const auto budget = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
+      scene_options.memory_budget_bytes = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
       const std::filesystem::path dir =
           o.page_dir.empty() ? std::filesystem::temp_directory_path() : std::filesystem::path(o.page_dir);
-      scene = RenderScene::from_point_cloud_paged(*cloud, o.bandwidth, budget, dir, progress.get());
+      scene = RenderScene::from_point_cloud_paged(*cloud, dir, scene_options);
     } else {
-      scene = RenderScene::from_point_cloud(*cloud, o.bandwidth, progress.get());
+      scene = RenderScene::from_point_cloud(*cloud, scene_options);
     }
   }
   if (!scene.ok()) return report_failure(scene.status().with_context(o.input));

@@ -34,16 +34,23 @@ Camera frame_bounds(const Box3f& bounds, float fov_degrees = 40);
 // What a compressed scene holds of decoded bricks unless told otherwise: 512 MiB.
 inline constexpr std::uint64_t kDefaultMemoryBudget = std::uint64_t{512} << 20;
 
-struct RenderOptions {
+// How a scene is built, fixed for its life (RenderScene's factories).
+struct SceneOptions {
+  // The MLS bandwidth h in point spacings (the cloud's median nearest-neighbour distance).
+  float bandwidth = 1.5f;
+  // What a compressed scene may hold of decoded bricks, and a paged one of bricks read back; an
+  // in-memory point-cloud scene holds its whole cloud and has no use for it.
+  std::uint64_t memory_budget_bytes = kDefaultMemoryBudget;
+  Progress* progress = nullptr;  // the build's stages
+};
+
+// One frame of a built scene (RenderScene::render): what any camera may change between frames.
+struct FrameOptions {
   int width = 1024;
   int height = 1024;
   Camera camera;
   Shade shade = Shade::kLambert;
-  // The MLS bandwidth h in point spacings (the cloud's median nearest-neighbour distance).
-  float bandwidth = 1.5f;
-  // What the one-call render_compressed() may hold of decoded bricks (RenderScene::from_compressed).
-  std::uint64_t memory_budget_bytes = kDefaultMemoryBudget;
-  Progress* progress = nullptr;
+  Progress* progress = nullptr;  // the frame's rows
 };
 
 struct Image {
@@ -78,32 +85,29 @@ class RenderScene {
   virtual ~RenderScene() = default;
 
   // One MLS surface over all of `cloud`'s points; the cloud must have unit normals (see
-  // ensure_normals). `bandwidth` is h in point spacings.
-  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud(const PointCloud& cloud, float bandwidth = 1.5f,
-                                                                 Progress* progress = nullptr);
+  // ensure_normals). The memory budget is not used: the scene holds the whole cloud.
+  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud(const PointCloud& cloud,
+                                                                 const SceneOptions& options = {});
   // The same surface within a memory budget, for clouds too large to hold: the points are split
   // into bricks written to a page file in `page_dir` (removed with the scene), each with the
   // points within the support radius of its box, and read back as rays reach them through a
-  // cache of at most `budget_bytes` of surfaces, the least recently used evicted. Frames report
-  // the bytes they read; images are the same as from_point_cloud's up to the bricks' borders.
-  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud_paged(const PointCloud& cloud, float bandwidth,
-                                                                       std::uint64_t budget_bytes,
+  // cache of at most options.memory_budget_bytes of surfaces, the least recently used evicted.
+  // Frames report the bytes they read; images are the same as from_point_cloud's up to the
+  // bricks' borders.
+  static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud_paged(const PointCloud& cloud,
                                                                        const std::filesystem::path& page_dir,
-                                                                       Progress* progress = nullptr);
+                                                                       const SceneOptions& options = {});
   // A compressed model, rendered directly: the MLS surface of its decoded points, seamless
   // across instances, built brick by brick as rays reach them from what the model's random-access
   // API decodes there (with PCA normals, k = 16, when the model stores none, as a decoded cloud
-  // gets them), and kept in a cache of at most `budget_bytes`, the least recently used evicted.
-  // The image is that of the decoded model's render up to the bricks' borders, whatever the
-  // budget. The scene shares the model, which must not change while it lives.
+  // gets them), and kept in a cache of at most options.memory_budget_bytes, the least recently
+  // used evicted. The image is that of the decoded model's render up to the bricks' borders,
+  // whatever the budget. The scene shares the model, which must not change while it lives.
   static StatusOr<std::unique_ptr<RenderScene>> from_compressed(std::shared_ptr<const CompressedModel> model,
-                                                                float bandwidth = 1.5f,
-                                                                std::uint64_t budget_bytes = kDefaultMemoryBudget,
-                                                                Progress* progress = nullptr);
+                                                                const SceneOptions& options = {});
 
-  // Renders one frame; options.bandwidth is the scene's. Fills `stats` when given, including
-  // the scene's build time and memory.
-  virtual StatusOr<Image> render(const RenderOptions& options, RenderStats* stats = nullptr) const = 0;
+  // Renders one frame. Fills `stats` when given, including the scene's build time and memory.
+  virtual StatusOr<Image> render(const FrameOptions& options, RenderStats* stats = nullptr) const = 0;
 
   // One ray against the scene's surface, for a host ray tracer (an Embree user geometry, a
   // path tracer's secondary rays): the first hit along origin + t·direction for t in [t_min,
@@ -132,11 +136,11 @@ class RenderScene {
   std::uint64_t memory_bytes_ = 0;
 };
 
-// One frame in one call: builds the scene with options.bandwidth, then renders it.
-StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& options,
+// One frame in one call: builds the scene, then renders it.
+StatusOr<Image> render_point_cloud(const PointCloud& cloud, const FrameOptions& frame, const SceneOptions& scene = {},
                                    RenderStats* stats = nullptr);
-StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& options,
-                                  RenderStats* stats = nullptr);
+StatusOr<Image> render_compressed(const CompressedModel& model, const FrameOptions& frame,
+                                  const SceneOptions& scene = {}, RenderStats* stats = nullptr);
 
 // Writes an 8-bit RGB PNG atomically.
 Status write_png(const Image& image, const std::filesystem::path& path);

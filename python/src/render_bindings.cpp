@@ -31,14 +31,17 @@ class Scene {
     }
     CallbackProgress reporter(progress);
     ThreadLimit limit(threads);
+    SceneOptions options;
+    options.bandwidth = bandwidth;
+    options.memory_budget_bytes = static_cast<std::uint64_t>(memory_budget_mib * 1024 * 1024);
+    options.progress = reporter.get();
     StatusOr<std::unique_ptr<RenderScene>> scene = invalid_argument("no scene");
     if (py::isinstance<CompressedModel>(source)) {
       // The scene shares the model, which the Python object owns: the scene keeps that object
       // alive and holds a pointer that owns nothing.
       keep_alive_ = source;
       std::shared_ptr<const CompressedModel> model(&source.cast<const CompressedModel&>(), [](const CompressedModel*) {});
-      const auto budget = static_cast<std::uint64_t>(memory_budget_mib * 1024 * 1024);
-      scene = without_gil([&] { return RenderScene::from_compressed(model, bandwidth, budget, reporter.get()); });
+      scene = without_gil([&] { return RenderScene::from_compressed(model, options); });
     } else {
       PointCloud copy;
       const PointCloud* cloud = &cloud_ref(source, "source", copy);
@@ -50,21 +53,19 @@ class Scene {
       if (!cloud->has_normals() && cloud != &copy) cloud = &(copy = *cloud);
       scene = without_gil([&]() -> StatusOr<std::unique_ptr<RenderScene>> {
         if (!cloud->has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(copy, normals));
-        return RenderScene::from_point_cloud(*cloud, bandwidth, reporter.get());
+        return RenderScene::from_point_cloud(*cloud, options);
       });
     }
     reporter.rethrow();
     scene_ = value_or_raise(std::move(scene));
-    bandwidth_ = bandwidth;
   }
 
   py::object render(int width, int height, const py::object& eye, const py::object& target, const py::object& up,
                     float fov, const std::string& shade, bool depth, int threads, const py::object& progress) const {
-    RenderOptions options;
+    FrameOptions options;
     options.width = width;
     options.height = height;
     options.shade = shade_from(shade);
-    options.bandwidth = bandwidth_;
     options.camera = frame_bounds(scene_->bounds(), fov);
     if (!eye.is_none()) options.camera.eye = vec3(eye, "eye");
     if (!target.is_none()) options.camera.target = vec3(target, "target");
@@ -100,7 +101,6 @@ class Scene {
 
   py::object keep_alive_;  // declared before scene_, so destroyed after it
   std::unique_ptr<RenderScene> scene_;
-  float bandwidth_ = 1.5f;
 };
 
 void write_png_array(const py::array& array, const std::filesystem::path& path) {

@@ -162,8 +162,8 @@ StatusOr<std::optional<RayHit>> BrickScene::intersect(const Vec3f& origin, const
   return hit;
 }
 
-StatusOr<Image> BrickScene::render(const RenderOptions& o, RenderStats* stats) const {
-  SSPC_RETURN_IF_ERROR(check_options(o));
+StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) const {
+  SSPC_RETURN_IF_ERROR(check_frame(o));
   const PinholeCamera camera(o.camera, o.width, o.height);
   const std::uint64_t read_before = bytes_loaded(), loads_before = loads_;
   std::mutex failure_mutex;

@@ -30,7 +30,7 @@ class BrickScene : public RenderScene {
  public:
   using SurfacePtr = std::shared_ptr<const MlsSurface>;
 
-  StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override;
+  StatusOr<Image> render(const FrameOptions& o, RenderStats* stats) const override;
   StatusOr<std::optional<RayHit>> intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
                                             float t_max) const override;
   Box3f bounds() const override { return bounds_; }

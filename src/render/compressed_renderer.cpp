@@ -113,8 +113,6 @@ class CompressedScene final : public render::BrickScene {
 
 Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, float bandwidth, std::uint64_t budget,
                               Progress* progress) {
-  if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
-  if (budget == 0) return invalid_argument("the memory budget must be positive");
   const ModelInfo info = model->info();
   if (model->patch_count() == 0) return invalid_argument("the model has no patches");
   const auto start = std::chrono::steady_clock::now();
@@ -225,21 +223,22 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load(std::size_t b) const
 }  // namespace
 
 StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_compressed(std::shared_ptr<const CompressedModel> model,
-                                                                    float bandwidth, std::uint64_t budget_bytes,
-                                                                    Progress* progress) {
+                                                                    const SceneOptions& options) {
   if (model == nullptr) return invalid_argument("from_compressed: no model");
+  SSPC_RETURN_IF_ERROR(render::check_scene(options));
   auto scene = std::make_unique<CompressedScene>();
-  SSPC_RETURN_IF_ERROR(scene->build(std::move(model), bandwidth, budget_bytes, progress));
+  SSPC_RETURN_IF_ERROR(
+      scene->build(std::move(model), options.bandwidth, options.memory_budget_bytes, options.progress));
   return std::unique_ptr<RenderScene>(std::move(scene));
 }
 
-StatusOr<Image> render_compressed(const CompressedModel& model, const RenderOptions& o, RenderStats* stats) {
-  SSPC_RETURN_IF_ERROR(render::check_options(o));
+StatusOr<Image> render_compressed(const CompressedModel& model, const FrameOptions& frame,
+                                  const SceneOptions& scene_options, RenderStats* stats) {
+  SSPC_RETURN_IF_ERROR(render::check_frame(frame));
   // The scene lives only for this call, within the caller's model: a pointer that owns nothing.
   std::shared_ptr<const CompressedModel> borrowed(&model, [](const CompressedModel*) {});
-  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_compressed(std::move(borrowed), o.bandwidth,
-                                                                 o.memory_budget_bytes, o.progress));
-  return scene->render(o, stats);
+  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_compressed(std::move(borrowed), scene_options));
+  return scene->render(frame, stats);
 }
 
 }  // namespace sspc

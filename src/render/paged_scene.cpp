@@ -149,17 +149,13 @@ StatusOr<PagedScene::SurfacePtr> PagedScene::load(std::size_t b) const {
 
 }  // namespace
 
-StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud_paged(const PointCloud& cloud, float bandwidth,
-                                                                           std::uint64_t budget_bytes,
+StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud_paged(const PointCloud& cloud,
                                                                            const std::filesystem::path& page_dir,
-                                                                           Progress* progress) {
-  SSPC_RETURN_IF_ERROR(cloud.validate());
-  if (cloud.empty()) return invalid_argument("the cloud is empty");
-  if (!cloud.has_normals()) return invalid_argument("rendering needs normals (estimate them first)");
-  if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
-  if (budget_bytes == 0) return invalid_argument("the memory budget must be positive");
+                                                                           const SceneOptions& options) {
+  SSPC_RETURN_IF_ERROR(render::check_renderable(cloud, options));
   auto scene = std::make_unique<PagedScene>();
-  SSPC_RETURN_IF_ERROR(scene->build(cloud, bandwidth, budget_bytes, page_dir, progress));
+  SSPC_RETURN_IF_ERROR(
+      scene->build(cloud, options.bandwidth, options.memory_budget_bytes, page_dir, options.progress));
   return std::unique_ptr<RenderScene>(std::move(scene));
 }
 

@@ -36,8 +36,8 @@ class PointCloudScene final : public RenderScene {
   PointCloudScene(const PointCloud& cloud, float h)
       : surface_(cloud.positions, cloud.normals, h), bounds_(cloud.bounding_box()) {}
 
-  StatusOr<Image> render(const RenderOptions& o, RenderStats* stats) const override {
-    SSPC_RETURN_IF_ERROR(render::check_options(o));
+  StatusOr<Image> render(const FrameOptions& o, RenderStats* stats) const override {
+    SSPC_RETURN_IF_ERROR(render::check_frame(o));
     const render::PinholeCamera camera(o.camera, o.width, o.height);
     Image image = render::trace_image(
         o, camera,
@@ -80,16 +80,14 @@ class PointCloudScene final : public RenderScene {
 
 }  // namespace
 
-StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud(const PointCloud& cloud, float bandwidth,
-                                                                     Progress* progress) {
-  SSPC_RETURN_IF_ERROR(cloud.validate());
-  if (cloud.empty()) return invalid_argument("the cloud is empty");
-  if (!cloud.has_normals()) return invalid_argument("rendering needs normals (estimate them first)");
-  if (!(bandwidth > 0.1f && bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
+StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud(const PointCloud& cloud,
+                                                                     const SceneOptions& options) {
+  SSPC_RETURN_IF_ERROR(render::check_renderable(cloud, options));
+  Progress* progress = options.progress;
   const auto start = std::chrono::steady_clock::now();
   progress_begin(progress, "scene", 1, "surfaces");
   SSPC_ASSIGN_OR_RETURN(const double spacing, render::surface_spacing(cloud));
-  const auto h = static_cast<float>(static_cast<double>(bandwidth) * spacing);
+  const auto h = static_cast<float>(static_cast<double>(options.bandwidth) * spacing);
   auto scene = std::make_unique<PointCloudScene>(cloud, h);
   scene->set_build(seconds_since(start));
   progress_advance(progress, 1);
@@ -97,10 +95,11 @@ StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_point_cloud(const Point
   return std::unique_ptr<RenderScene>(std::move(scene));
 }
 
-StatusOr<Image> render_point_cloud(const PointCloud& cloud, const RenderOptions& o, RenderStats* stats) {
-  SSPC_RETURN_IF_ERROR(render::check_options(o));
-  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_point_cloud(cloud, o.bandwidth, o.progress));
-  return scene->render(o, stats);
+StatusOr<Image> render_point_cloud(const PointCloud& cloud, const FrameOptions& frame, const SceneOptions& scene_options,
+                                   RenderStats* stats) {
+  SSPC_RETURN_IF_ERROR(render::check_frame(frame));
+  SSPC_ASSIGN_OR_RETURN(auto scene, RenderScene::from_point_cloud(cloud, scene_options));
+  return scene->render(frame, stats);
 }
 
 }  // namespace sspc

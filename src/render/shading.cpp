@@ -37,19 +37,32 @@ Vec3f id_colour(std::uint32_t id) {
 
 }  // namespace
 
-Status check_options(const RenderOptions& o) {
+Status check_frame(const FrameOptions& o) {
   if (o.width < 1 || o.height < 1 || o.width > 16384 || o.height > 16384) {
     return invalid_argument("image size must be 1..16384 pixels per side");
   }
   if (!(o.camera.fov_degrees > 0.1f && o.camera.fov_degrees < 179.0f)) {
     return invalid_argument("field of view must be in (0.1, 179) degrees");
   }
-  if (!(o.bandwidth > 0.1f && o.bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
   const Vec3f forward = o.camera.target - o.camera.eye;
   if (!o.camera.eye.allFinite() || !o.camera.target.allFinite() || !o.camera.up.allFinite() ||
       !(forward.norm() > 0) || !(forward.normalized().cross(o.camera.up).norm() > 1e-6f)) {
     return invalid_argument("the camera needs distinct eye and target and an up vector not along the view");
   }
+  return Status();
+}
+
+Status check_scene(const SceneOptions& o) {
+  if (!(o.bandwidth > 0.1f && o.bandwidth < 100.0f)) return invalid_argument("bandwidth must be in (0.1, 100) spacings");
+  if (o.memory_budget_bytes == 0) return invalid_argument("the memory budget must be positive");
+  return Status();
+}
+
+Status check_renderable(const PointCloud& cloud, const SceneOptions& o) {
+  SSPC_RETURN_IF_ERROR(check_scene(o));
+  SSPC_RETURN_IF_ERROR(cloud.validate());
+  if (cloud.empty()) return invalid_argument("the cloud is empty");
+  if (!cloud.has_normals()) return invalid_argument("rendering needs normals (estimate them first)");
   return Status();
 }
 

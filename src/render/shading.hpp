@@ -13,8 +13,12 @@
 
 namespace sspc::render {
 
-// Option checks common to both renderers.
-Status check_options(const RenderOptions& options);
+// Option checks common to every scene: of a frame (RenderScene::render) and of a build (the
+// factories).
+Status check_frame(const FrameOptions& options);
+Status check_scene(const SceneOptions& options);
+// check_scene and a cloud that can be rendered: valid, not empty, with normals.
+Status check_renderable(const PointCloud& cloud, const SceneOptions& options);
 
 // The nominal spacing of a cloud to render (of its distinct positions, nominal_spacing), checked
 // against float32's limits (check_geometry_range): the MLS bandwidth is a multiple of it, and a
@@ -47,7 +51,7 @@ class Frame {
 // (it may set the pixel in `frame` and add its MLS evaluations), then shades the frame. Fills
 // the tracing half of `stats` (rays, hits, evaluations, render seconds) when given.
 template <typename Trace>
-Image trace_image(const RenderOptions& o, const PinholeCamera& camera, Trace&& trace, RenderStats* stats) {
+Image trace_image(const FrameOptions& o, const PinholeCamera& camera, Trace&& trace, RenderStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   Frame frame(o.width, o.height);
   std::atomic<std::uint64_t> hits{0}, evaluations{0};

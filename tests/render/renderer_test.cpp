@@ -35,7 +35,7 @@ std::string slurp(const std::filesystem::path& p) {
 
 struct SphereScene {
   PointCloud cloud = synthetic::sphere(40000, 1.0);
-  RenderOptions options;
+  FrameOptions options;
   SphereScene() {
     options.width = 96;
     options.height = 96;
@@ -124,7 +124,7 @@ TEST(Renderer, SameImageOnAnyThreadCount) {
 
 TEST(Renderer, BadOptionsAreRefused) {
   SphereScene scene;
-  RenderOptions o = scene.options;
+  FrameOptions o = scene.options;
   o.width = 0;
   EXPECT_FALSE(render_point_cloud(scene.cloud, o).ok());
   o = scene.options;
@@ -133,6 +133,11 @@ TEST(Renderer, BadOptionsAreRefused) {
   PointCloud no_normals = scene.cloud;
   no_normals.normals.clear();
   EXPECT_FALSE(render_point_cloud(no_normals, scene.options).ok());
+  // A scene's options are checked by every factory.
+  for (const SceneOptions bad : {SceneOptions{.bandwidth = 0}, SceneOptions{.memory_budget_bytes = 0}}) {
+    EXPECT_FALSE(RenderScene::from_point_cloud(scene.cloud, bad).ok());
+    EXPECT_FALSE(render_point_cloud(scene.cloud, scene.options, bad).ok());
+  }
 }
 
 // A bandwidth far below float32's resolution at the ray's distance (a hostile header, a cloud of
@@ -238,7 +243,7 @@ TEST(Renderer, CompressedSphereAgreesWithTheUncompressedOne) {
   auto plain = render_point_cloud(scene.cloud, scene.options);
   RenderStats stats;
   scene.options.shade = Shade::kCodeword;
-  auto compressed = render_compressed(*model, scene.options, &stats);
+  auto compressed = render_compressed(*model, scene.options, {}, &stats);
   ASSERT_TRUE(plain.ok() && compressed.ok()) << compressed.status().to_string();
   const auto [disagree, both, errors] = compare_depths(*plain, *compressed);
   ASSERT_GT(both, 1500);
@@ -309,7 +314,7 @@ TEST(Renderer, SurfaceBoundsHoldEveryHit) {
   auto opened = CompressedModel::open(path);
   ASSERT_TRUE(opened.ok());
   auto cloud_scene = RenderScene::from_point_cloud(square);
-  auto paged_scene = RenderScene::from_point_cloud_paged(square, 1.5f, std::uint64_t{1} << 30, dir.path());
+  auto paged_scene = RenderScene::from_point_cloud_paged(square, dir.path(), {.memory_budget_bytes = std::uint64_t{1} << 30});
   auto model_scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(opened).value()));
   ASSERT_TRUE(cloud_scene.ok() && paged_scene.ok() && model_scene.ok());
   for (const auto* s : {cloud_scene->get(), paged_scene->get(), model_scene->get()}) {
@@ -385,7 +390,7 @@ TEST(Renderer, PngRoundTripAndBadPngs) {
 // The direct render of a compressed model against the render of its decode (normals estimated
 // the same way on both sides): the bar, ≥ 35 dB over the pixels hit and ≤ 0.2% of them
 // hit by one only, positions only (`one_only_bar` loosens the second where a test says why).
-void expect_direct_matches_decoded(const PointCloud& source, int level, const RenderOptions& options,
+void expect_direct_matches_decoded(const PointCloud& source, int level, const FrameOptions& options,
                                    double one_only_bar = 0.002) {
   test::TempDir dir;
   const auto path = dir.path() / "model.sspc";
@@ -412,7 +417,7 @@ void expect_direct_matches_decoded(const PointCloud& source, int level, const Re
 TEST(Renderer, DirectRenderOfTheBunnyMatchesTheRenderOfItsDecode) {
   auto cloud = read_point_cloud(std::string(SSPC_SOURCE_DIR) + "/data/bunny.ply");
   ASSERT_TRUE(cloud.ok()) << cloud.status().to_string();
-  RenderOptions options;
+  FrameOptions options;
   options.width = options.height = 192;
   options.camera = frame_bounds(cloud->bounding_box());
   // The finest and the coarsest level (level 5 is in the CLI's and Python's tests; all three on
@@ -442,8 +447,8 @@ TEST(BrickScene, SameImageWhateverTheBudgetAndThreads) {
   auto opened = CompressedModel::open(path);
   ASSERT_TRUE(opened.ok());
   const auto model = std::make_shared<const CompressedModel>(std::move(opened).value());
-  auto roomy = RenderScene::from_compressed(model, 1.5f, std::uint64_t{1} << 30);
-  auto tight = RenderScene::from_compressed(model, 1.5f, 64 << 10);
+  auto roomy = RenderScene::from_compressed(model, {.memory_budget_bytes = std::uint64_t{1} << 30});
+  auto tight = RenderScene::from_compressed(model, {.memory_budget_bytes = 64 << 10});
   ASSERT_TRUE(roomy.ok() && tight.ok());
   RenderStats roomy_first, roomy_second, tight_stats;
   auto a = (*roomy)->render(scene.options, &roomy_first);
@@ -470,11 +475,11 @@ TEST(BrickScene, SameImageWhateverTheBudgetAndThreads) {
 TEST(Renderer, PagedSceneMatchesTheInMemoryOne) {
   SphereScene scene;
   RenderStats plain_stats;
-  auto plain = render_point_cloud(scene.cloud, scene.options, &plain_stats);
+  auto plain = render_point_cloud(scene.cloud, scene.options, {}, &plain_stats);
   ASSERT_TRUE(plain.ok());
   test::TempDir dir;
   for (const std::uint64_t budget : {std::uint64_t{1} << 30, plain_stats.scene_bytes / 3}) {
-    auto paged = RenderScene::from_point_cloud_paged(scene.cloud, scene.options.bandwidth, budget, dir.path());
+    auto paged = RenderScene::from_point_cloud_paged(scene.cloud, dir.path(), {.memory_budget_bytes = budget});
     ASSERT_TRUE(paged.ok()) << paged.status().to_string();
     RenderStats first, second;
     auto a = (*paged)->render(scene.options, &first);
@@ -516,7 +521,7 @@ TEST(Renderer, CompressedPlaneHasNoSeams) {
   ASSERT_TRUE(encode(plane, path, EncodeOptions{}).ok());
   auto model = CompressedModel::open(path);
   ASSERT_TRUE(model.ok());
-  RenderOptions options;
+  FrameOptions options;
   options.width = options.height = 160;
   options.camera.eye = Vec3f(0.5f, -0.1f, 0.7f);
   options.camera.target = Vec3f(0.5f, 0.5f, 0.0f);

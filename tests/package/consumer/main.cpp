@@ -36,12 +36,12 @@ int main(int argc, char** argv) {
   if (!patch.ok()) return fail(patch.status());
   std::printf("patches=%zu patch0=%zu\n", model->patch_count(), patch->size());
 
-  sspc::RenderOptions options;
+  sspc::FrameOptions options;
   options.width = 64;
   options.height = 64;
   options.camera = sspc::frame_bounds(model->info().bounds);
   sspc::RenderStats stats;
-  auto image = sspc::render_compressed(*model, options, &stats);
+  auto image = sspc::render_compressed(*model, options, {}, &stats);
   if (!image.ok()) return fail(image.status());
   if (auto written = sspc::write_png(*image, argv[2]); !written.ok()) return fail(written);
   std::printf("hits=%llu\n", static_cast<unsigned long long>(stats.hits));
