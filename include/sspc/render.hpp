@@ -92,8 +92,8 @@ class RenderScene {
   // into bricks written to a page file in `page_dir` (removed with the scene), each with the
   // points within the support radius of its box, and read back as rays reach them through a
   // cache of at most options.memory_budget_bytes of surfaces, the least recently used evicted.
-  // Frames report the bytes they read; images are the same as from_point_cloud's up to the
-  // bricks' borders.
+  // Frames report the bytes they read; images are from_point_cloud's (a ray samples the surface
+  // where the whole cloud's march does, whatever the bricks).
   static StatusOr<std::unique_ptr<RenderScene>> from_point_cloud_paged(const PointCloud& cloud,
                                                                        const std::filesystem::path& page_dir,
                                                                        const SceneOptions& options = {});
@@ -101,8 +101,8 @@ class RenderScene {
   // across instances, built brick by brick as rays reach them from what the model's random-access
   // API decodes there (with PCA normals, k = 16, when the model stores none, as a decoded cloud
   // gets them), and kept in a cache of at most options.memory_budget_bytes, the least recently
-  // used evicted. The image is that of the decoded model's render up to the bricks' borders,
-  // whatever the budget. The scene shares the model, which must not change while it lives.
+  // used evicted. The image is that of the decoded model's render (up to normals estimated in
+  // bricks rather than over the whole decode), whatever the budget. The scene shares the model, which must not change while it lives.
   static StatusOr<std::unique_ptr<RenderScene>> from_compressed(std::shared_ptr<const CompressedModel> model,
                                                                 const SceneOptions& options = {});
 

@@ -17,9 +17,10 @@ constexpr std::size_t kMinBricks = 8;
 
 }  // namespace
 
-Status BrickScene::layout(const Box3f& bounds, float edge, std::uint64_t budget_bytes) {
+Status BrickScene::layout(const Box3f& bounds, float edge, float bandwidth, std::uint64_t budget_bytes) {
   if (bounds_.isEmpty()) bounds_ = bounds;
   edge_ = edge;
+  bandwidth_ = bandwidth;
   budget_ = budget_bytes;
   origin_ = bounds.min();
   const Vec3f extent = bounds.max() - bounds.min();
@@ -104,6 +105,98 @@ StatusOr<BrickScene::SurfacePtr> BrickScene::surface(std::size_t b) const {
   return built;
 }
 
+// The scene's surface as march_ray (render/mls_march.hpp) asks for it, for one ray: a point is
+// evaluated in the surface of the brick that holds it, which holds every point within the
+// support radius of the brick, so the march samples what the whole cloud's surface would give
+// there, bracket by bracket across the bricks' faces. The bricks it last used are kept, as a
+// bracket that straddles a face goes back and forth between two.
+class BrickScene::Field {
+ public:
+  explicit Field(const BrickScene& scene) : scene_(scene) {}
+
+  float bandwidth() const { return scene_.bandwidth_; }
+  const Status& status() const { return status_; }
+
+  bool evaluate(const Vec3f& x, const Vec3f& facing, Vec3f& a, Vec3f& n, float& support) const {
+    const MlsSurface* s = at(x);
+    return s != nullptr && s->evaluate(x, facing, a, n, support);
+  }
+
+  float empty_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const {
+    const Vec3f x = o + t * d;
+    int c[3];
+    if (!scene_.brick_of(x, c)) return std::numeric_limits<float>::infinity();  // beyond every brick
+    const float exit = std::max(exit_of(c, o, d), t) + 1e-3f * scene_.edge_;
+    const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
+    if (!scene_.occupied_[b]) return std::min(exit, std::max(t_max, t) + scene_.edge_);
+    const MlsSurface* s = surface(b);
+    if (s == nullptr) return std::numeric_limits<float>::infinity();  // failed: the march ends
+    // A cell of the brick's surface near none of its points is near no point of the cloud only
+    // inside the brick: the skip stops at the brick's face.
+    const float until = s->empty_until(o, d, t, t_max);
+    return until > t ? std::min(until, exit) : t;
+  }
+
+  float skip_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const {
+    const Vec3f x = o + t * d;
+    int c[3];
+    if (!scene_.brick_of(x, c)) return t;
+    const MlsSurface* s = at(x);
+    if (s == nullptr) return t;
+    return std::min(s->skip_until(o, d, t, t_max), std::max(exit_of(c, o, d), t));
+  }
+
+  std::uint32_t nearest_id(const Vec3f& x) const {
+    const MlsSurface* s = at(x);
+    return s != nullptr ? s->nearest_id(x) : 0;
+  }
+
+ private:
+  // Where the ray leaves brick c.
+  float exit_of(const int c[3], const Vec3f& o, const Vec3f& d) const {
+    float exit = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+      if (d[a] > 0) exit = std::min(exit, (scene_.origin_[a] + static_cast<float>(c[a] + 1) * scene_.edge_ - o[a]) / d[a]);
+      if (d[a] < 0) exit = std::min(exit, (scene_.origin_[a] + static_cast<float>(c[a]) * scene_.edge_ - o[a]) / d[a]);
+    }
+    return exit;
+  }
+  // The surface of the occupied brick holding x, else null.
+  const MlsSurface* at(const Vec3f& x) const {
+    int c[3];
+    if (!scene_.brick_of(x, c)) return nullptr;
+    const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
+    return scene_.occupied_[b] ? surface(b) : nullptr;
+  }
+  const MlsSurface* surface(std::size_t b) const {
+    for (const auto& [brick, held] : recent_) {
+      if (brick == b && held != nullptr) return held.get();
+    }
+    if (!status_.ok()) return nullptr;
+    StatusOr<SurfacePtr> s = scene_.surface(b);
+    if (!s.ok()) {
+      status_ = s.status();
+      return nullptr;
+    }
+    recent_[1] = std::move(recent_[0]);
+    recent_[0] = {b, std::move(s).value()};
+    return recent_[0].second.get();
+  }
+
+  const BrickScene& scene_;
+  mutable std::pair<std::size_t, SurfacePtr> recent_[2];
+  mutable Status status_;
+};
+
+bool BrickScene::brick_of(const Vec3f& x, int c[3]) const {
+  for (int a = 0; a < 3; ++a) {
+    const float v = std::floor((x[a] - origin_[a]) / edge_);
+    if (!(v >= 0) || !(v < static_cast<float>(dims_[a]))) return false;
+    c[a] = static_cast<int>(v);
+  }
+  return true;
+}
+
 StatusOr<std::optional<RayHit>> BrickScene::trace(const Vec3f& eye, const Vec3f& d, float t_min, float t_max,
                                                   bool want_id, std::uint64_t& evaluations) const {
   const std::optional<RayHit> miss;
@@ -121,36 +214,12 @@ StatusOr<std::optional<RayHit>> BrickScene::trace(const Vec3f& eye, const Vec3f&
     t1 = std::min(t1, far);
   }
   if (!(t0 <= t1)) return miss;
-  // 3D DDA over the bricks, front to back: the first brick with a hit has the first hit.
-  const Vec3f start = eye + t0 * d;
-  int c[3], step[3];
-  float next[3], delta[3];
-  for (int a = 0; a < 3; ++a) {
-    c[a] = brick_coordinate(start[a], a);
-    step[a] = d[a] > 0 ? 1 : -1;
-    const float boundary = origin_[a] + static_cast<float>(c[a] + (d[a] > 0 ? 1 : 0)) * edge_;
-    next[a] = d[a] != 0 ? (boundary - eye[a]) / d[a] : std::numeric_limits<float>::infinity();
-    delta[a] = d[a] != 0 ? edge_ / std::abs(d[a]) : std::numeric_limits<float>::infinity();
-  }
-  float t = t0;
-  while (t <= t1) {
-    const int axis = next[0] < next[1] ? (next[0] < next[2] ? 0 : 2) : (next[1] < next[2] ? 1 : 2);
-    const float exit = std::min(next[axis], t1);
-    const std::size_t b = brick_index(c[0], c[1], c[2]);
-    if (occupied_[b]) {
-      SSPC_ASSIGN_OR_RETURN(const SurfacePtr s, surface(b));
-      const auto hit = s->intersect(eye, d, t, exit);
-      if (hit) {
-        evaluations += static_cast<std::uint64_t>(hit->evaluations);
-        return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? s->nearest_id(eye + hit->t * d) : 0});
-      }
-    }
-    t = next[axis];
-    next[axis] += delta[axis];
-    c[axis] += step[axis];
-    if (c[axis] < 0 || c[axis] >= dims_[axis]) break;
-  }
-  return miss;
+  const Field field(*this);
+  const auto hit = march_ray(field, eye, d, t0, t1);
+  SSPC_RETURN_IF_ERROR(field.status());
+  if (!hit) return miss;
+  evaluations += static_cast<std::uint64_t>(hit->evaluations);
+  return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? field.nearest_id(eye + hit->t * d) : 0});
 }
 
 StatusOr<std::optional<RayHit>> BrickScene::intersect(const Vec3f& origin, const Vec3f& direction, float t_min,

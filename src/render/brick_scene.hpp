@@ -5,7 +5,8 @@
 //
 // Each brick's surface is built from the points within the support radius of its box, so the
 // surface inside a brick needs no other brick and is the MLS surface of the whole cloud there.
-// Rays walk the bricks front to back (3D DDA) and stop at the first brick with a hit. A brick is
+// A ray is marched once along its whole length (render/mls_march.hpp), each sample evaluated
+// in the brick that holds it, so it finds the hit the whole cloud's surface gives. A brick is
 // built once however many threads ask for it at once (the others wait for it), always from the
 // same points, so an image does not depend on what the cache held or on the thread count. The
 // cache keeps at least 8 bricks whatever the budget, so that a budget smaller than a few rows'
@@ -39,8 +40,9 @@ class BrickScene : public RenderScene {
 
  protected:
   // Lays the grid over `bounds` (which become bounds() unless set before) with bricks of edge
-  // `edge`. Returns an error when the grid would have more than 10⁷ bricks.
-  Status layout(const Box3f& bounds, float edge, std::uint64_t budget_bytes);
+  // `edge`, whose surfaces have the MLS bandwidth h = `bandwidth`. Returns an error when the
+  // grid would have more than 10⁷ bricks.
+  Status layout(const Box3f& bounds, float edge, float bandwidth, std::uint64_t budget_bytes);
 
   std::size_t brick_count() const { return occupied_.size(); }
   std::size_t brick_index(int x, int y, int z) const {
@@ -60,15 +62,20 @@ class BrickScene : public RenderScene {
   virtual std::uint64_t bytes_loaded() const { return 0; }
 
   float edge_ = 0;
+  float bandwidth_ = 0;  // h of every brick's surface
   Box3f bounds_;
 
  private:
   // The brick's surface, from the cache or built by load().
   StatusOr<SurfacePtr> surface(std::size_t b) const;
-  // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], walking the bricks front to back;
+  // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], marched across the bricks;
   // `evaluations` gets the MLS evaluations; the id only when `want_id`.
   StatusOr<std::optional<RayHit>> trace(const Vec3f& o, const Vec3f& d, float t_min, float t_max, bool want_id,
                                         std::uint64_t& evaluations) const;
+
+  class Field;  // the surface over bricks, as a ray's march asks for it
+  // The brick holding x (floor of its grid coordinates), or false outside the grid.
+  bool brick_of(const Vec3f& x, int c[3]) const;
 
   Vec3f origin_;
   int dims_[3] = {1, 1, 1};

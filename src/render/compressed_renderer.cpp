@@ -169,7 +169,7 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   const float area = std::max({extent.x() * extent.y(), extent.y() * extent.z(), extent.x() * extent.z(), 1e-30f});
   const double points = std::max<double>(1.0, static_cast<double>(info.source_points));
   const float edge = std::max(8 * r_, std::sqrt(area * static_cast<float>(kPointsPerDecodedBrick / points)));
-  SSPC_RETURN_IF_ERROR(layout(reach_box, edge, budget));
+  SSPC_RETURN_IF_ERROR(layout(reach_box, edge, h_, budget));
 
   // A brick holds surface when some patch's points can reach it.
   for (const Vec3f& c : centres) {

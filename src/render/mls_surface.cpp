@@ -11,27 +11,6 @@ namespace {
 // Support radius in bandwidths: the Gaussian is e^−6.25 ≈ 0.2% of its peak there.
 constexpr float kSupport = 2.5f;
 constexpr std::size_t kSupportSamples = 64;
-// Refinement steps once a crossing is bracketed, and the precision they stop at, in
-// bandwidths: far below a pixel's footprint at any useful zoom.
-constexpr int kMaxIterations = 12;
-// A ray gives up after this many samples of f: far more than any surface needs (a ray grazing
-// autzen's 1.3 km of ground in half-bandwidth steps takes about 5,000), and a bound on the work
-// a ray can cost whatever the data.
-constexpr int kMaxMarchSamples = 1 << 16;
-// Every step advances t by at least this many units in the last place of the ray's coordinates,
-// so that a bandwidth below float32's resolution at the ray's distance cannot stall the march.
-constexpr float kMinStepUlps = 4.0f;
-// Samples in a row where the surface is undefined before the march measures how far it may skip
-// (doubled after each measurement that allowed no skip). After 4, the measuring cost dragon_scans
-// 10% of its rays per second uncompressed and 15% compressed; after 16, 0% and 5%; after 32,
-// nothing measurable (1024², median of 3, 1.39 against 1.37 Mrays/s compressed), while a sparse
-// cloud of tiny spacing (a fuzzer's 12 points, some 2e-7 apart, 1.5 across) renders 1024² in
-// 0.15 s instead of taking 65,536 samples a ray.
-constexpr int kMissesBeforeSkip = 32;
-constexpr float kTolerance = 1e-3f;
-// |f| at an accepted root, in bandwidths: a continuous f is within about kTolerance·h of 0 when
-// the refinement stops; one that jumped is far from it.
-constexpr float kRootTolerance = 0.05f;
 // Power iterations for the principal axis of the normals' tensor (MlsSurface::evaluate).
 constexpr int kPowerIterations = 4;
 // The grid never has more cells than this many per point (plus a few for tiny sets): cells grow
@@ -280,113 +259,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     t_max = std::min(t_max, far);
   }
   if (!(t_min <= t_max)) return std::nullopt;
-
-  SurfaceHit hit;
-  Vec3f a, n;
-  float support = 0;
-  // The signed distance to the local plane, f(x) = n(x)·(x − a(x)), with n(x) turned the way of
-  // `facing`: the normal of the last sample, so that n keeps its sign along the ray, or towards
-  // the ray's origin at the first sample after a gap. False where the surface is undefined.
-  Vec3f facing = -d;
-  const auto f_at = [&](float t, float& f) {
-    ++hit.evaluations;
-    const Vec3f x = o + t * d;
-    if (!evaluate(x, facing, a, n, support)) return false;
-    f = n.dot(x - a);
-    return true;
-  };
-  // The smallest step that still moves t: a few units in the last place of |o| + |t|.
-  const float ulp_step = kMinStepUlps * std::numeric_limits<float>::epsilon() *
-                         (o.cwiseAbs().maxCoeff() + std::max(std::abs(t_min), std::abs(t_max)));
-  const float march_step = std::max(0.5f * h_, ulp_step);
-  float t = t_min;
-  bool have_previous = false;
-  float t_previous = 0, f_previous = 0;
-  int samples = 0;
-  int misses = 0;  // consecutive samples where the surface was undefined
-  int skip_at = kMissesBeforeSkip;
-  while (t <= t_max && ++samples <= kMaxMarchSamples) {
-    const Vec3f x = o + t * d;
-    int c[3];
-    for (int k = 0; k < 3; ++k) c[k] = cell_coordinate(x[k], k);
-    if (!near(cell_index(c[0], c[1], c[2]))) {
-      // No point within reach anywhere in this cell: leave it in one step.
-      float exit = std::numeric_limits<float>::infinity();
-      for (int k = 0; k < 3; ++k) {
-        if (d[k] > 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k] + 1) * cell_[k] - o[k]) / d[k]);
-        if (d[k] < 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k]) * cell_[k] - o[k]) / d[k]);
-      }
-      t = std::max(exit, t) + std::max(1e-3f * radius_, ulp_step);
-      have_previous = false;
-      facing = -d;
-      continue;
-    }
-    float f = 0;
-    if (!f_at(t, f)) {
-      // Undefined here. After a few such samples in a row, skip what lies farther than r from
-      // every point (a cell far wider than r, as in a sparse cloud with a tiny spacing, would
-      // otherwise cost a sample every h/2 across it).
-      float step = march_step;
-      if (++misses >= skip_at) {
-        const float gap = clearance(o + t * d) - radius_;
-        if (gap > step) {
-          step = gap;
-        } else {
-          skip_at = 2 * misses;
-        }
-      }
-      t += step;
-      have_previous = false;
-      facing = -d;
-      continue;
-    }
-    misses = 0;
-    skip_at = kMissesBeforeSkip;
-    if (have_previous && (f > 0) != (f_previous > 0)) {
-      // f changed sign between the last two samples: the surface is in between. Regula falsi
-      // with the Illinois rule (the end that stays is halved), a handful of evaluations.
-      float lo = t_previous, f_lo = f_previous, hi = t, f_hi = f;
-      float s = hi, f_s = f;
-      bool at_s = true;  // a, n and support were last evaluated at s
-      int kept = 0;      // which end stayed last: −1 lo, +1 hi
-      facing = n;
-      for (int it = 0; it < kMaxIterations; ++it) {
-        s = lo - f_lo * (hi - lo) / (f_hi - f_lo);
-        at_s = f_at(s, f_s);
-        if (!at_s) break;
-        if (std::abs(f_s) < kTolerance * h_ || hi - lo < kTolerance * h_) break;
-        if ((f_s > 0) == (f_lo > 0)) {
-          lo = s;
-          f_lo = f_s;
-          if (kept == 1) f_hi *= 0.5f;
-          kept = 1;
-        } else {
-          hi = s;
-          f_hi = f_s;
-          if (kept == -1) f_lo *= 0.5f;
-          kept = -1;
-        }
-      }
-      // A root of f, not a jump of it across the bracket (where the normals turn by more than a
-      // right angle between two samples, f may change sign without passing through 0).
-      if (at_s && s >= t_min && s <= t_max && std::abs(f_s) <= kRootTolerance * h_) {
-        hit.t = s;
-        hit.normal = n.dot(d) > 0 ? Vec3f(-n) : n;
-        hit.support = support;
-        return hit;
-      }
-    }
-    have_previous = true;
-    t_previous = t;
-    f_previous = f;
-    facing = n;
-    // At least half the bandwidth, and up to 90% of the distance to the local plane (along the
-    // ray the plane is at least that far): a surface is found unless two crossings lie closer
-    // than the step. The last sample is at t_max, so a crossing just before it is not lost.
-    t += std::max(march_step, 0.9f * std::abs(f));
-    if (t > t_max && t_previous < t_max) t = t_max;
-  }
-  return std::nullopt;
+  return march_ray(*this, o, d, t_min, t_max);
 }
 
 }  // namespace sspc::render

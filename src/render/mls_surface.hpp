@@ -21,30 +21,27 @@
 // at 1024²) and a radius query over contiguous runs is several times cheaper; the same grid
 // marks the cells near no point, which a ray crosses in one step.
 //
-// A ray is intersected by marching: across cells near no point in one step each, near points in
-// steps of at least h/2 watching the sign of f, and once f changes sign, by regula falsi on f
-// inside that bracket: the first crossing along the ray is found unless two lie closer than h/2.
+// A ray is intersected by marching (render/mls_march.hpp): across cells near no point in one
+// step each, near points in steps of at least h/2 watching the sign of f, and once f changes
+// sign, by regula falsi on f inside that bracket: the first crossing along the ray is found
+// unless two lie closer than h/2.
 //
 // The class is the one surface every scene uses: over a whole cloud, or over one brick's points
 // (render/brick_scene.hpp).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <span>
 #include <vector>
 
+#include "render/mls_march.hpp"
 #include "sspc/point_cloud.hpp"
 
 namespace sspc::render {
-
-struct SurfaceHit {
-  float t = 0;        // along the ray, whose direction is a unit vector
-  Vec3f normal;       // unit, facing the ray's origin
-  float support = 0;  // Σ weights at the hit: how much data the surface rests on there
-  int evaluations = 0;
-};
 
 class MlsSurface {
  public:
@@ -58,6 +55,14 @@ class MlsSurface {
 
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
   std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
+
+  // For march_ray (render/mls_march.hpp): where o + t·d lies in a cell near no point, a t just
+  // past the ray's exit from that cell, else t; and how far along the ray the surface stays
+  // undefined from t, from clearance().
+  float empty_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const;
+  float skip_until(const Vec3f& o, const Vec3f& d, float t, float /*t_max*/) const {
+    return t + std::max(clearance(o + t * d) - radius_, 0.0f);
+  }
 
   // a(x), n(x) (unit; its sign is that of `facing`·n, or arbitrary when `facing` is zero) and
   // Σ weights; false where the surface is undefined (too little support).
@@ -127,5 +132,45 @@ class MlsSurface {
   std::vector<float> x_, y_, z_, nx_, ny_, nz_;          // points and normals, cell by cell
   std::vector<std::uint32_t> ids_;                       // per point, cell by cell, when given
 };
+
+// Per sample of every march: inline, as the march's loop was before it became a template
+// (out of line it cost about 5% of an uncompressed render of dragon_scans).
+inline float MlsSurface::empty_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const {
+  if (size_ == 0) return std::numeric_limits<float>::infinity();
+  const Vec3f x = o + t * d;
+  int c[3];
+  bool inside = true;
+  for (int k = 0; k < 3; ++k) {
+    const float u = (x[k] - origin_[k]) * inv_cell_[k];
+    inside = inside && u >= 0 && u < static_cast<float>(dims_[k]);
+    c[k] = inside ? std::min(static_cast<int>(u), dims_[k] - 1) : 0;
+  }
+  if (!inside) {
+    // Outside the grid no point is within reach: on to where the ray enters it, if it does (a
+    // brick's surface, marched along a ray that crosses the brick's empty corners).
+    float enter = -std::numeric_limits<float>::infinity(), leave = std::numeric_limits<float>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      const float lo = origin_[k], hi = origin_[k] + static_cast<float>(dims_[k]) * cell_[k];
+      if (d[k] == 0) {
+        if (o[k] < lo || o[k] > hi) return std::numeric_limits<float>::infinity();
+        continue;
+      }
+      float near = (lo - o[k]) / d[k], far = (hi - o[k]) / d[k];
+      if (near > far) std::swap(near, far);
+      enter = std::max(enter, near);
+      leave = std::min(leave, far);
+    }
+    if (!(enter <= leave) || t >= leave) return std::numeric_limits<float>::infinity();
+    return t < enter ? enter : t;
+  }
+  if (near(cell_index(c[0], c[1], c[2]))) return t;
+  float exit = t_max;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] > 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k] + 1) * cell_[k] - o[k]) / d[k]);
+    if (d[k] < 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k]) * cell_[k] - o[k]) / d[k]);
+  }
+  // Just past the cell's face, so that the next sample is in the next cell.
+  return std::max(exit, t) + 1e-3f * radius_;
+}
 
 }  // namespace sspc::render

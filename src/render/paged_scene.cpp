@@ -72,10 +72,14 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
   const float area = std::max({extent.x() * extent.y(), extent.y() * extent.z(), extent.x() * extent.z(), 1e-30f});
   const float edge =
       std::max(8 * r, std::sqrt(area * static_cast<float>(kPointsPerPagedBrick / static_cast<double>(cloud.size()))));
-  SSPC_RETURN_IF_ERROR(layout(bounds, edge, budget));
+  // The surface reaches r beyond the points: so does the grid, or rays would stop short of it.
+  bounds_ = bounds;
+  SSPC_RETURN_IF_ERROR(
+      layout(Box3f(bounds.min() - Vec3f::Constant(r), bounds.max() + Vec3f::Constant(r)), edge, h_, budget));
   bricks_.assign(brick_count(), Brick{});
 
-  // Each point goes to its brick and, within r of another brick's box, to that one's halo.
+  // Each point goes to its brick and, within r of another brick's box, to that one's halo; a
+  // brick with only a halo holds surface too (within r of a neighbour's point).
   std::vector<std::vector<std::uint32_t>> members(bricks_.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Vec3f& p = cloud.positions[i];
@@ -84,10 +88,12 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
       lo[a] = brick_coordinate(p[a] - r, a);
       hi[a] = brick_coordinate(p[a] + r, a);
     }
-    set_occupied(brick_index(brick_coordinate(p.x(), 0), brick_coordinate(p.y(), 1), brick_coordinate(p.z(), 2)));
     for (int z = lo[2]; z <= hi[2]; ++z) {
       for (int y = lo[1]; y <= hi[1]; ++y) {
-        for (int x = lo[0]; x <= hi[0]; ++x) members[brick_index(x, y, z)].push_back(static_cast<std::uint32_t>(i));
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          members[brick_index(x, y, z)].push_back(static_cast<std::uint32_t>(i));
+          set_occupied(brick_index(x, y, z));
+        }
       }
     }
   }
