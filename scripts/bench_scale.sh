@@ -18,7 +18,7 @@
 # Writes docs/results/scale_bench.csv and its table in docs/RESULTS.md ("Scale").
 #
 # Usage: scripts/bench_scale.sh [DATA_DIR]     (default ../shared/data)
-#   SIZES="10M 100M" (SIZES= none; 1G needs about 40 GB of disk and 2 hours)   LIMIT=2G   LEVEL=5
+#   SIZES="10M 100M" (SIZES= none; 1G needs about 36 GB of disk and 95 minutes of 2 cores)   LIMIT=2G   LEVEL=5
 #   WORKERS="1 2 4"   ROUNDS=3   DASK_TILE_POINTS=1000000
 #   WORK=/tmp/sspc_bench_scale (generated clouds are kept there between runs; a size whose cloud
 #   and spill would not fit the free disk is skipped and named)
