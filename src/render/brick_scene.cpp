@@ -128,7 +128,7 @@ class BrickScene::Field {
     if (!scene_.brick_of(x, c)) return std::numeric_limits<float>::infinity();  // beyond every brick
     const float exit = std::max(exit_of(c, o, d), t) + 1e-3f * scene_.edge_;
     const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
-    if (!scene_.occupied_[b]) return std::min(exit, std::max(t_max, t) + scene_.edge_);
+    if (!scene_.occupied_[b]) return exit;
     const MlsSurface* s = surface(b);
     if (s == nullptr) return std::numeric_limits<float>::infinity();  // failed: the march ends
     // A cell of the brick's surface near none of its points is near no point of the cloud only
@@ -154,12 +154,12 @@ class BrickScene::Field {
  private:
   // Where the ray leaves brick c.
   float exit_of(const int c[3], const Vec3f& o, const Vec3f& d) const {
-    float exit = std::numeric_limits<float>::infinity();
+    Vec3f lo, hi;
     for (int a = 0; a < 3; ++a) {
-      if (d[a] > 0) exit = std::min(exit, (scene_.origin_[a] + static_cast<float>(c[a] + 1) * scene_.edge_ - o[a]) / d[a]);
-      if (d[a] < 0) exit = std::min(exit, (scene_.origin_[a] + static_cast<float>(c[a]) * scene_.edge_ - o[a]) / d[a]);
+      lo[a] = scene_.origin_[a] + static_cast<float>(c[a]) * scene_.edge_;
+      hi[a] = scene_.origin_[a] + static_cast<float>(c[a] + 1) * scene_.edge_;
     }
-    return exit;
+    return exit_from_box(lo, hi, o, d, std::numeric_limits<float>::infinity());
   }
   // The surface of the occupied brick holding x, else null.
   const MlsSurface* at(const Vec3f& x) const {
@@ -202,18 +202,9 @@ StatusOr<std::optional<RayHit>> BrickScene::trace(const Vec3f& eye, const Vec3f&
   const std::optional<RayHit> miss;
   // The ray's interval in the grid of bricks.
   float t0 = std::max(t_min, 0.0f), t1 = t_max;
-  for (int a = 0; a < 3; ++a) {
-    const float lo = origin_[a], hi = origin_[a] + static_cast<float>(dims_[a]) * edge_;
-    if (d[a] == 0) {
-      if (eye[a] < lo || eye[a] > hi) return miss;
-      continue;
-    }
-    float near = (lo - eye[a]) / d[a], far = (hi - eye[a]) / d[a];
-    if (near > far) std::swap(near, far);
-    t0 = std::max(t0, near);
-    t1 = std::min(t1, far);
-  }
-  if (!(t0 <= t1)) return miss;
+  const Vec3f far_corner = origin_ + edge_ * Vec3f(static_cast<float>(dims_[0]), static_cast<float>(dims_[1]),
+                                                   static_cast<float>(dims_[2]));
+  if (!clip_to_box(origin_, far_corner, eye, d, t0, t1)) return miss;
   const Field field(*this);
   const auto hit = march_ray(field, eye, d, t0, t1);
   SSPC_RETURN_IF_ERROR(field.status());

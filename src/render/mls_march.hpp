@@ -56,6 +56,33 @@ inline constexpr int kMissesBeforeSkip = 32;
 
 }  // namespace march
 
+// The part [enter, leave] of the ray o + t·d that lies in the box [lo, hi] (slabs, in float as
+// every grid here computes it); false when it misses the box.
+inline bool clip_to_box(const Vec3f& lo, const Vec3f& hi, const Vec3f& o, const Vec3f& d, float& enter,
+                        float& leave) {
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0) {
+      if (o[k] < lo[k] || o[k] > hi[k]) return false;
+      continue;
+    }
+    float near = (lo[k] - o[k]) / d[k], far = (hi[k] - o[k]) / d[k];
+    if (near > far) std::swap(near, far);
+    enter = std::max(enter, near);
+    leave = std::min(leave, far);
+  }
+  return enter <= leave;
+}
+
+// Where the ray o + t·d leaves the box [lo, hi] that holds it: the nearest face ahead, at most
+// `limit`.
+inline float exit_from_box(const Vec3f& lo, const Vec3f& hi, const Vec3f& o, const Vec3f& d, float limit) {
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] > 0) limit = std::min(limit, (hi[k] - o[k]) / d[k]);
+    if (d[k] < 0) limit = std::min(limit, (lo[k] - o[k]) / d[k]);
+  }
+  return limit;
+}
+
 // The first root of f along o + t·d (|d| = 1) for t in [t_min, t_max], if any. `field` is the
 // surface, asked at points of the ray:
 //   bool evaluate(x, facing, a, n, support)  a(x), n(x) turned the way of `facing`, Σ w; false

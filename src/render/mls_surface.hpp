@@ -149,26 +149,14 @@ inline float MlsSurface::empty_until(const Vec3f& o, const Vec3f& d, float t, fl
     // Outside the grid no point is within reach: on to where the ray enters it, if it does (a
     // brick's surface, marched along a ray that crosses the brick's empty corners).
     float enter = -std::numeric_limits<float>::infinity(), leave = std::numeric_limits<float>::infinity();
-    for (int k = 0; k < 3; ++k) {
-      const float lo = origin_[k], hi = origin_[k] + static_cast<float>(dims_[k]) * cell_[k];
-      if (d[k] == 0) {
-        if (o[k] < lo || o[k] > hi) return std::numeric_limits<float>::infinity();
-        continue;
-      }
-      float near = (lo - o[k]) / d[k], far = (hi - o[k]) / d[k];
-      if (near > far) std::swap(near, far);
-      enter = std::max(enter, near);
-      leave = std::min(leave, far);
+    const Vec3f far_corner = cell_corner(dims_[0], dims_[1], dims_[2]);
+    if (!clip_to_box(origin_, far_corner, o, d, enter, leave) || t >= leave) {
+      return std::numeric_limits<float>::infinity();
     }
-    if (!(enter <= leave) || t >= leave) return std::numeric_limits<float>::infinity();
     return t < enter ? enter : t;
   }
   if (near(cell_index(c[0], c[1], c[2]))) return t;
-  float exit = t_max;
-  for (int k = 0; k < 3; ++k) {
-    if (d[k] > 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k] + 1) * cell_[k] - o[k]) / d[k]);
-    if (d[k] < 0) exit = std::min(exit, (origin_[k] + static_cast<float>(c[k]) * cell_[k] - o[k]) / d[k]);
-  }
+  const float exit = exit_from_box(cell_corner(c[0], c[1], c[2]), cell_corner(c[0] + 1, c[1] + 1, c[2] + 1), o, d, t_max);
   // Just past the cell's face, so that the next sample is in the next cell.
   return std::max(exit, t) + 1e-3f * radius_;
 }
