@@ -74,10 +74,12 @@ class TiledEncoder {
   std::unique_ptr<Impl> impl_;
 };
 
-// The tile size a memory limit allows: what a tile's encode holds per point (its job, margin,
-// normals, search tree, patches and code book, measured on autzen: see tiled_encoder.cpp) into
-// the limit less a fixed part for the plan and the writer.
-std::uint64_t tile_points_for_memory(std::uint64_t memory_limit_bytes);
+// The tile size a memory limit allows for a cloud of `points` points: what a tile's encode holds
+// per point (its job, margin, normals, search tree, patches and code book: see tiled_encoder.cpp)
+// into the limit less a fixed part for the plan and the read, and less what the writer holds for
+// the whole model (its patch records, about 0.22 bytes a point). kInvalidArgument, naming the
+// least limit, when that leaves no room for a tile of 65,536 points.
+StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes, std::uint64_t points);
 
 // Runs one tile's job: normals where its points have none, patch centres over the tile's own
 // points, the code book over the tile and its margin. Returns the tile's model as bytes for

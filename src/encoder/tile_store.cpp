@@ -11,6 +11,7 @@
 #include "core/atomic_file.hpp"
 #include "format/attribute_coder.hpp"
 #include "sspc/encoder.hpp"
+#include "sspc/tiled_encoder.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -164,7 +165,7 @@ class MemoryStore final : public TileStore {
 
 class SpillStore final : public TileStore {
  public:
-  Status build(const std::filesystem::path& input, const ReadOptions& read, std::uint64_t tile_points,
+  Status build(const std::filesystem::path& input, const ReadOptions& read, TileSize size,
                std::uint8_t channels, const std::filesystem::path& work_dir, std::size_t chunk_points) {
     const std::string name = input.string();
     // Pass 1: the bounds, the count and what every point carries.
@@ -193,6 +194,12 @@ class SpillStore final : public TileStore {
     };
     SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, learn, read));
     for (const std::string& field : dropped) input_.dropped += (input_.dropped.empty() ? "" : ", ") + field;
+    std::uint64_t tile_points = size.points;
+    if (tile_points == 0) {
+      auto allowed = tile_points_for_memory(size.memory_limit, input_.points);
+      if (!allowed.ok()) return Status(allowed.status().code(), name + ": " + allowed.status().message());
+      tile_points = *allowed;
+    }
     // Pass 2: the counts, then the plan.
     TilePlanner planner(input_.bounds);
     SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, [&](PointCloud&& chunk) -> Status {
@@ -208,7 +215,11 @@ class SpillStore final : public TileStore {
     std::vector<std::FILE*> handles(plan_.size(), nullptr);
     std::vector<std::string> buffers(plan_.size());
     std::vector<std::uint64_t> written(plan_.size(), 0);
-    constexpr std::size_t kBuffer = 256 << 10;
+    // 256 KB a tile, fewer under a limit that 1B points' 344 tiles (86 MB) would crowd.
+    constexpr std::uint64_t kMostBuffer = 256 << 10, kLeastBuffer = 16 << 10;
+    const std::size_t buffer_bytes = static_cast<std::size_t>(
+        size.memory_limit == 0 ? kMostBuffer
+                               : std::clamp<std::uint64_t>(size.memory_limit / 16 / std::max<std::size_t>(plan_.size(), 1), kLeastBuffer, kMostBuffer));
     auto close_all = [&handles] {
       for (std::FILE*& f : handles) {
         if (f != nullptr) std::fclose(f);
@@ -239,7 +250,7 @@ class SpillStore final : public TileStore {
         b.resize(b.size() + stride_);
         columns_.write(b.data() + b.size() - stride_, chunk, i);
         ++written[t];
-        if (b.size() >= kBuffer) SSPC_RETURN_IF_ERROR(flush(t));
+        if (b.size() >= buffer_bytes) SSPC_RETURN_IF_ERROR(flush(t));
       }
       return Status();
     };
@@ -296,11 +307,11 @@ std::unique_ptr<TileStore> TileStore::in_memory(PointCloud cloud, std::uint64_t 
 }
 
 StatusOr<std::unique_ptr<TileStore>> TileStore::spilled(const std::filesystem::path& input, const ReadOptions& read,
-                                                        std::uint64_t tile_points, std::uint8_t channels,
+                                                        TileSize size, std::uint8_t channels,
                                                         const std::filesystem::path& work_dir,
                                                         std::size_t chunk_points) {
   auto store = std::make_unique<SpillStore>();
-  SSPC_RETURN_IF_ERROR(store->build(input, read, tile_points, channels, work_dir, std::max<std::size_t>(chunk_points, 1)));
+  SSPC_RETURN_IF_ERROR(store->build(input, read, size, channels, work_dir, std::max<std::size_t>(chunk_points, 1)));
   return std::unique_ptr<TileStore>(std::move(store));
 }
 

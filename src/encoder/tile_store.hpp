@@ -45,9 +45,16 @@ class TileStore {
   static std::unique_ptr<TileStore> in_memory(PointCloud cloud, std::uint64_t tile_points, std::uint8_t channels);
   // `input` read in three passes of `chunk_points` points (bounds, counts, spill), never held
   // whole; the tiles' files go to a hidden folder in `work_dir` that the store removes (also on
-  // SIGINT/SIGTERM when the program installed remove_temporary_files_on_signals()).
+  // SIGINT/SIGTERM when the program installed remove_temporary_files_on_signals()). The tiles hold
+  // at most `size.points` points, or what `size.memory_limit` allows for the input's count
+  // (tile_points_for_memory, known after the first pass); under a limit the spill's buffers share
+  // a sixteenth of it.
+  struct TileSize {
+    std::uint64_t points = 0;
+    std::uint64_t memory_limit = 0;
+  };
   static StatusOr<std::unique_ptr<TileStore>> spilled(const std::filesystem::path& input, const ReadOptions& read,
-                                                      std::uint64_t tile_points, std::uint8_t channels,
+                                                      TileSize size, std::uint8_t channels,
                                                       const std::filesystem::path& work_dir,
                                                       std::size_t chunk_points = std::size_t{1} << 20);
 

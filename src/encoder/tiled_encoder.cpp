@@ -22,6 +22,7 @@
 #include "encoder/tile_job.hpp"
 #include "encoder/tile_store.hpp"
 #include "format/attribute_coder.hpp"
+#include "sspc/allocator.hpp"
 #include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 
@@ -229,13 +230,12 @@ StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions&
 StatusOr<TiledEncoder> TiledEncoder::plan_file(const std::filesystem::path& input, const EncodeOptions& options,
                                                const ReadOptions& read, const std::filesystem::path& work_dir) {
   SSPC_RETURN_IF_ERROR(check_options(options));
-  const std::uint64_t tile_points = options.tile_points > 0 ? options.tile_points
-                                    : options.memory_limit > 0 ? tile_points_for_memory(options.memory_limit)
-                                                               : 0;
-  if (tile_points == 0) return invalid_argument("a tiled encode needs tile_points or memory_limit > 0");
+  if (options.tile_points == 0 && options.memory_limit == 0) {
+    return invalid_argument("a tiled encode needs tile_points or memory_limit > 0");
+  }
   const auto start = std::chrono::steady_clock::now();
   auto impl = Impl::make(options);
-  SSPC_ASSIGN_OR_RETURN(impl->store, codec::TileStore::spilled(input, read, tile_points,
+  SSPC_ASSIGN_OR_RETURN(impl->store, codec::TileStore::spilled(input, read, {options.tile_points, options.memory_limit},
                                                                static_cast<std::uint8_t>(options.attributes), work_dir));
   const codec::TileInput& in = impl->store->input();
   if (Status size = check_size(in.points, in.bounds); !size.ok()) {
@@ -394,11 +394,22 @@ StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, s
 // peaked at 1,926 MB (337 bytes a point of a tile), 100M generated points in 26 tiles of at most
 // 5.75M at 2,467 MB (at least 407); 470 leaves room for a tile whose margin is relatively larger.
 // (Without kept memory 100M peaked at 1,847 MB, but ran at 98k points/s instead of 126k.)
-std::uint64_t tile_points_for_memory(std::uint64_t memory_limit_bytes) {
-  constexpr std::uint64_t kFixed = 128ull << 20;  // the plan's grid, the patches, the read chunks
+// What the writer holds for the whole model grows with the cloud: a patch record (56 bytes) per
+// patch until the model is written, twice that while its array grows. A level's patches hold
+// some 900 points each (1B generated points made 1.1M patches at level 5), so one per 512 points
+// is the bound: 0.22 bytes a point, 220 MB of a 2 GiB limit at 1B points.
+StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes, std::uint64_t points) {
+  constexpr std::uint64_t kFixed = 128ull << 20;  // the plan's grid, the read chunks, the spill's buffers
   constexpr std::uint64_t kPerPoint = 470;
   constexpr std::uint64_t kLeast = 1u << 16;
-  return std::max(kLeast, memory_limit_bytes > kFixed ? (memory_limit_bytes - kFixed) / kPerPoint : 0);
+  const std::uint64_t model = points / 512 * 2 * sizeof(codec::PatchInstance);
+  const std::uint64_t reserved = kFixed + model;
+  if (memory_limit_bytes < reserved + kLeast * kPerPoint) {
+    return invalid_argument("a memory limit of " + std::to_string(memory_limit_bytes >> 20) + " MiB is too small for " +
+                            std::to_string(points) + " points: at least " +
+                            std::to_string(((reserved + kLeast * kPerPoint) >> 20) + 1) + " MiB");
+  }
+  return (memory_limit_bytes - reserved) / kPerPoint;
 }
 
 StatusOr<std::string> run_tile_job(std::string_view bytes) {
@@ -429,6 +440,10 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
     SSPC_ASSIGN_OR_RETURN(const std::string job, this->job(t));
     SSPC_ASSIGN_OR_RETURN(std::string result, run_tile_job(job));
     SSPC_RETURN_IF_ERROR(add(t, std::move(result)));
+    // What earlier tiles freed is kept for reuse, until it holds the process near the limit
+    // (sspc/allocator.hpp).
+    const std::uint64_t limit = impl_->options.memory_limit;
+    if (limit > 0 && resident_bytes() > limit - limit / 8) release_freed_memory();
     progress_advance(progress, 1);
   }
   progress_end(progress);

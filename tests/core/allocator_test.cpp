@@ -29,5 +29,29 @@ TEST(Allocator, ALargeBlockIsNotMappedOnItsOwnAfterKeepFreedMemory) {
 #endif
 }
 
+// Freed memory below a block still in use stays resident after keep_freed_memory, and
+// release_freed_memory gives it back (what a tiled encode does between tiles near its limit).
+TEST(Allocator, ReleaseGivesBackFreedMemoryBelowABlockInUse) {
+#if !defined(__GLIBC__) || !defined(__linux__) || defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "glibc's own allocator on Linux only (a sanitizer replaces it)";
+#else
+  constexpr std::size_t kBlock = 64u << 20;
+  keep_freed_memory();
+  void* below = std::malloc(kBlock);
+  void* above = std::malloc(1u << 20);  // pins the heap's top above `below`
+  ASSERT_NE(below, nullptr);
+  ASSERT_NE(above, nullptr);
+  std::memset(below, 1, kBlock);
+  std::memset(above, 1, 1u << 20);
+  asm volatile("" : : "r"(below), "r"(above) : "memory");  // the pages written, not elided with the frees
+  std::free(below);
+  const std::size_t kept = resident_bytes();
+  ASSERT_GT(kept, kBlock);
+  EXPECT_TRUE(release_freed_memory());
+  EXPECT_LT(resident_bytes() + kBlock / 2, kept);
+  std::free(above);
+#endif
+}
+
 }  // namespace
 }  // namespace sspc

@@ -17,6 +17,7 @@
 #include "sspc/metrics.hpp"
 #include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
+#include "sspc/tiled_encoder.hpp"
 #include "test_util.hpp"
 
 namespace sspc::codec {
@@ -85,6 +86,22 @@ TEST(Tiling, ACellFinerThanTheGridIsNotSplit) {
   const TilePlan plan = plan_tiles(points, 10);
   EXPECT_EQ(plan.points[plan.tile_of(points[0])], 100u);
   EXPECT_EQ(plan.size(), 3u);
+}
+
+// A memory limit sizes tiles from what is left after what the writer holds for the whole model,
+// which grows with the cloud, and refuses, naming the least limit, rather than overrun it.
+TEST(Tiling, TileSizeLeavesRoomForTheWholeModelsRecords) {
+  constexpr std::uint64_t kLimit = 2ull << 30;
+  const auto small = tile_points_for_memory(kLimit, 10'000'000);
+  const auto large = tile_points_for_memory(kLimit, 1'000'000'000);
+  ASSERT_TRUE(small.ok() && large.ok());
+  EXPECT_GT(*small, *large);
+  EXPECT_GE(*small - *large, 1'000'000'000ull / 512 * 100 / 470);  // 100 bytes a patch, 470 a tile point
+  const auto huge = tile_points_for_memory(kLimit, 40'000'000'000);
+  ASSERT_FALSE(huge.ok());
+  EXPECT_EQ(huge.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(huge.status().message().find("MiB"), std::string::npos) << huge.status().message();
+  EXPECT_FALSE(tile_points_for_memory(64ull << 20, 1000).ok());
 }
 
 TEST(Tiling, ATiledModelDecodesLikeTheUntiledOne) {
