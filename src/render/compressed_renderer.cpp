@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "core/stopwatch.hpp"
+#include "geometry/normals_steps.hpp"
 #include "render/brick_scene.hpp"
 #include "render/shading.hpp"
 #include "sspc/neighbours.hpp"
@@ -232,27 +233,40 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load(std::size_t b) const
   DecodeOptions options;
   options.patch_of = &patch_of;
   SSPC_ASSIGN_OR_RETURN(PointCloud cloud, model_->decode_box(wide, options));
-  if (!has_normals_) {
-    // PCA needs 3 neighbours: a brick reached by fewer than 4 points (a stray few at its
-    // margin) shows none of them.
-    if (cloud.size() < 4) return SurfacePtr(std::make_shared<const render::MlsSurface>(std::span<const Vec3f>(),
-                                                                                      std::span<const Vec3f>(), h_));
-    NormalOptions normals;
-    normals.k = static_cast<int>(std::min<std::size_t>(kNormalNeighbours, cloud.size() - 1));
-    // PCA alone, without ensure_normals' orientation: the MLS surface takes the principal axis
-    // of Σ w nnᵀ, which no normal's sign changes, and a hit's normal faces the ray. The spanning
-    // tree was 22% of a compressed render of autzen (perf, 512²), the image the same.
-    SSPC_RETURN_IF_ERROR(estimate_normals(cloud, normals));
-  }
-  // The surface needs the points within r of the brick; the rest were there for the normals.
-  std::vector<Vec3f> positions, normals;
-  std::vector<std::uint32_t> ids;
+  // The surface needs the points within r of the brick; the rest are there for their normals.
+  std::vector<std::uint32_t> kept;
   const float r2 = r_ * r_;
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (own.squaredExteriorDistance(cloud.positions[i]) > r2) continue;
+    if (own.squaredExteriorDistance(cloud.positions[i]) <= r2) kept.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::vector<Vec3f> positions, normals;
+  std::vector<std::uint32_t> ids;
+  positions.reserve(kept.size());
+  ids.reserve(kept.size());
+  for (const std::uint32_t i : kept) {
     positions.push_back(cloud.positions[i]);
-    normals.push_back(cloud.normals[i]);
     ids.push_back(codeword_of_patch_[patch_of[i]]);
+  }
+  if (has_normals_) {
+    normals.reserve(kept.size());
+    for (const std::uint32_t i : kept) normals.push_back(cloud.normals[i]);
+  } else if (cloud.size() >= 4) {
+    // PCA over the 16 nearest among all the decoded points, as estimate_normals gives a decoded
+    // cloud (the same tree, ties by lower index), but for the kept points only, not for the
+    // margin that is there for their neighbourhoods. PCA alone, without
+    // the spanning tree's orientation: the MLS surface takes the principal axis of Σ w nnᵀ,
+    // which no normal's sign changes, and a hit's normal faces the ray (the tree was 22% of a
+    // compressed render of autzen, perf at 512², the image the same).
+    SSPC_RETURN_IF_ERROR(check_coordinate_range(cloud.positions));
+    const std::size_t k = std::min<std::size_t>(kNormalNeighbours, cloud.size() - 1);
+    const KnnTable table = KdTree3(cloud.positions).knn_batch(positions, k);
+    normals.resize(kept.size());
+    detail::estimate_normals_pca(cloud.positions, table, normals, nullptr);
+  } else {
+    // PCA needs 3 neighbours: a brick reached by fewer than 4 points (a stray few at its
+    // margin) shows none of them.
+    positions.clear();
+    ids.clear();
   }
   return SurfacePtr(
       std::make_shared<const render::MlsSurface>(positions, normals, h_, 0.0f, ids));
