@@ -571,6 +571,13 @@ to the system and faulting it in again: a process that encodes large clouds runs
 stays near its peak and the peak grows (100M points in tiles of 5.75M: 2.47 GB instead of 1.85;
 memory_limit sizes tiles with it). A process-wide setting, which sspc never makes on its own;
 the sspc CLI and sspc.distributed (client and workers) make it.)doc");
+  m.def("release_freed_memory", &release_freed_memory, R"doc(
+Gives the freed memory the allocator keeps back to the system, wherever it lies in the heap
+(glibc's malloc_trim); returns whether any was given back. Between tiles of a memory-limited
+encode once the process holds more than 7/8 of its limit (the sspc CLI), and on a Dask worker
+after a tile job once it holds more than 7/8 of the worker's memory limit (sspc.distributed).)doc");
+  m.def("resident_bytes", &resident_bytes, R"doc(
+The process's resident memory now, in bytes (Linux's /proc/self/statm); 0 where unknown.)doc");
   std::apply(
       [&](auto... options) {
         m.def("encode", &encode_cloud, py::arg("cloud"), py::arg("path") = py::none(), py::kw_only(), options...,

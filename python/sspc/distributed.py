@@ -48,11 +48,29 @@ def _run_job(job, threads, result=None):
     """One tile's job on a worker: its bytes, or a job file's path and the result file's (shared
     storage). The extension's functions do not pickle, so the task is this module function, which
     imports it where it runs."""
-    from sspc import keep_freed_memory, run_tile_job as run  # pylint: disable=import-outside-toplevel
+    # pylint: disable-next=import-outside-toplevel
+    from sspc import keep_freed_memory, release_freed_memory, resident_bytes, run_tile_job as run
 
     keep_freed_memory()  # this worker's allocator (memory_limit bounds the client, not the workers)
     out = run(job, threads=threads, result=result)
+    # What the job freed stays kept for the next one until the worker holds 70% of its Dask memory
+    # limit (Dask counts kept memory too: it pauses a worker at 80% and restarts it at 95%); the
+    # CLI does the same between tiles at 7/8 of its limit (sspc/allocator.hpp).
+    limit = _worker_memory_limit()
+    if limit and resident_bytes() > limit * 7 // 10:
+        release_freed_memory()
     return result if result is not None else out
+
+
+def _worker_memory_limit():
+    """The memory limit of the Dask worker running this task, in bytes; None outside a worker or
+    without a limit."""
+    from dask.distributed import get_worker  # pylint: disable=import-outside-toplevel
+
+    try:
+        return get_worker().memory_manager.memory_limit
+    except ValueError:  # not in a worker's task
+        return None
 
 
 def encode(cloud, path, *, client=None, scheduler=None, workers=None, job_threads=None, tile_points=0,

@@ -108,3 +108,25 @@ def test_dask_from_a_file_under_a_memory_limit(bunny_path, client, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dask.sspc", "local.sspc"]  # nothing left behind
     with pytest.raises(ValueError, match="file's path"):
         sspc.distributed.encode(sspc.read(bunny_path), tmp_path / "x.sspc", client=client, memory_limit=1 << 30)
+
+
+def test_a_worker_knows_its_memory_limit_and_its_resident_size(client):
+    import sspc.distributed  # pylint: disable=import-outside-toplevel
+
+    assert sspc.distributed._worker_memory_limit() is None  # pylint: disable=protected-access
+    limits = client.run(lambda: sspc.distributed._worker_memory_limit())  # pylint: disable=protected-access
+    expected = {address: info["memory_limit"] for address, info in client.scheduler_info()["workers"].items()}
+    assert limits == expected and all(limit > 0 for limit in limits.values())
+
+
+def test_resident_bytes_is_the_processs_and_release_gives_back_what_was_freed():
+    with open("/proc/self/status", encoding="ascii") as status:
+        rss = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
+    assert abs(sspc.resident_bytes() - rss) < rss // 10
+    sspc.keep_freed_memory()
+    held = bytearray(64 << 20)  # touched: zero-filled
+    held[::4096] = b"\1" * len(held[::4096])
+    before = sspc.resident_bytes()
+    del held
+    sspc.release_freed_memory()
+    assert sspc.resident_bytes() < before - (32 << 20)
