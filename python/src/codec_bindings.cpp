@@ -575,7 +575,7 @@ the sspc CLI and sspc.distributed (client and workers) make it.)doc");
 Gives the freed memory the allocator keeps back to the system, wherever it lies in the heap
 (glibc's malloc_trim); returns whether any was given back. Between tiles of a memory-limited
 encode once the process holds more than 7/8 of its limit (the sspc CLI), and on a Dask worker
-after a tile job once it holds more than 7/8 of the worker's memory limit (sspc.distributed).)doc");
+after a tile job once it holds more than 70% of the worker's Dask memory limit (sspc.distributed).)doc");
   m.def("resident_bytes", &resident_bytes, R"doc(
 The process's resident memory now, in bytes (Linux's /proc/self/statm); 0 where unknown.)doc");
   std::apply(

@@ -215,11 +215,12 @@ class SpillStore final : public TileStore {
     std::vector<std::FILE*> handles(plan_.size(), nullptr);
     std::vector<std::string> buffers(plan_.size());
     std::vector<std::uint64_t> written(plan_.size(), 0);
-    // 256 KB a tile, fewer under a limit that 1B points' 344 tiles (86 MB) would crowd.
+    // 256 KB a tile, less under a limit that 1B points' 344 tiles (86 MB) would crowd: the
+    // buffers share a sixteenth of it (they are gone before any tile is encoded).
     constexpr std::uint64_t kMostBuffer = 256 << 10, kLeastBuffer = 16 << 10;
-    const std::size_t buffer_bytes = static_cast<std::size_t>(
-        size.memory_limit == 0 ? kMostBuffer
-                               : std::clamp<std::uint64_t>(size.memory_limit / 16 / std::max<std::size_t>(plan_.size(), 1), kLeastBuffer, kMostBuffer));
+    const std::uint64_t share = size.memory_limit / 16 / std::max<std::size_t>(plan_.size(), 1);
+    const auto buffer_bytes = static_cast<std::size_t>(
+        size.memory_limit == 0 ? kMostBuffer : std::clamp(share, kLeastBuffer, kMostBuffer));
     auto close_all = [&handles] {
       for (std::FILE*& f : handles) {
         if (f != nullptr) std::fclose(f);

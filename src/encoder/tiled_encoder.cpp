@@ -399,7 +399,7 @@ StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, s
 // some 900 points each (1B generated points made 1.1M patches at level 5), so one per 512 points
 // is the bound: 0.22 bytes a point, 220 MB of a 2 GiB limit at 1B points.
 StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes, std::uint64_t points) {
-  constexpr std::uint64_t kFixed = 128ull << 20;  // the plan's grid, the read chunks, the spill's buffers
+  constexpr std::uint64_t kFixed = 128ull << 20;  // the plan's grid, the read chunks
   constexpr std::uint64_t kPerPoint = 470;
   constexpr std::uint64_t kLeast = 1u << 16;
   const std::uint64_t model = points / 512 * 2 * sizeof(codec::PatchInstance);
