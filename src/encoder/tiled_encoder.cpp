@@ -412,8 +412,9 @@ StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes,
   return (memory_limit_bytes - reserved) / kPerPoint;
 }
 
-StatusOr<std::string> run_tile_job(std::string_view bytes) {
-  SSPC_ASSIGN_OR_RETURN(codec::TileJob job, codec::parse_tile_job(bytes));
+namespace {
+
+StatusOr<std::string> run_parsed_tile_job(codec::TileJob job) {
   if (!job.part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(job.part, job.normals));
   codec::TileResult result;
   SSPC_ASSIGN_OR_RETURN(result.model, codec::build_model(job.part, job.build, &result.stats));
@@ -423,6 +424,19 @@ StatusOr<std::string> run_tile_job(std::string_view bytes) {
   result.max_coverage_distance = codec::max_distance_to_centres(
       std::span(job.part.positions).first(job.build.core_points), origins);
   return codec::serialise_tile_result(result);
+}
+
+// What earlier tiles freed is kept for reuse (sspc/allocator.hpp) until it holds the process
+// near the limit; then it is given back, before the next step that allocates much.
+void release_near_limit(std::uint64_t limit) {
+  if (limit > 0 && resident_bytes() > limit - limit / 8) release_freed_memory();
+}
+
+}  // namespace
+
+StatusOr<std::string> run_tile_job(std::string_view bytes) {
+  SSPC_ASSIGN_OR_RETURN(codec::TileJob job, codec::parse_tile_job(bytes));
+  return run_parsed_tile_job(std::move(job));
 }
 
 Status run_tile_job_file(const std::filesystem::path& job, const std::filesystem::path& result) {
@@ -437,13 +451,20 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
   SSPC_RETURN_IF_ERROR(begin(output));
   progress_begin(progress, "tiles", tile_count(), "tiles");
   for (std::size_t t = 0; t < tile_count(); ++t) {
-    SSPC_ASSIGN_OR_RETURN(const std::string job, this->job(t));
-    SSPC_ASSIGN_OR_RETURN(std::string result, run_tile_job(job));
-    SSPC_RETURN_IF_ERROR(add(t, std::move(result)));
-    // What earlier tiles freed is kept for reuse, until it holds the process near the limit
-    // (sspc/allocator.hpp).
+    // The job's bytes are freed once parsed, and its points once encoded, so that neither is
+    // held while the result is added beside the model's growing records: at 1B points under
+    // 2 GiB the job alive during add() made the peak 1% over the limit (docs/RESULTS.md, Scale).
+    StatusOr<codec::TileJob> job = internal_error("no job");
+    {
+      SSPC_ASSIGN_OR_RETURN(const std::string bytes, this->job(t));
+      job = codec::parse_tile_job(bytes);
+    }
+    if (!job.ok()) return job.status();
+    SSPC_ASSIGN_OR_RETURN(std::string result, run_parsed_tile_job(std::move(*job)));
     const std::uint64_t limit = impl_->options.memory_limit;
-    if (limit > 0 && resident_bytes() > limit - limit / 8) release_freed_memory();
+    release_near_limit(limit);
+    SSPC_RETURN_IF_ERROR(add(t, std::move(result)));
+    release_near_limit(limit);
     progress_advance(progress, 1);
   }
   progress_end(progress);
