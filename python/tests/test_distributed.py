@@ -44,7 +44,7 @@ def test_tiled_encoder_jobs_run_anywhere_in_any_order(bunny, tmp_path):
     with pytest.raises(ValueError, match="tile 0"):
         tiled.write(tmp_path / "c.sspc", [b"junk"] + results[1:])
     with pytest.raises(RuntimeError):
-        sspc.run_tile_job(b"SSPCTJ01" + b"\0" * 10)
+        sspc.run_tile_job(b"SSPCTJ02" + b"\0" * 10)
 
 
 def test_jobs_and_results_as_files_give_the_same_bytes(bunny, tmp_path):

@@ -117,6 +117,12 @@ Codeword make_codeword(const PointCloud& cloud, std::span<const std::uint32_t> i
   return cw;
 }
 
+// A matched code word's normals given back, when the file will store none.
+void drop_normals(Codeword& w) {
+  w.normals.clear();
+  w.normals.shrink_to_fit();
+}
+
 // The descriptors of the patches still in the pool, indexed for L1 k-NN queries. The pool only
 // shrinks, so the tree is rebuilt over the eligible patches once a quarter of its items have
 // left: queries then touch few stale items, and the rebuilds cost O(n log n) in all.
@@ -186,6 +192,7 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
     world_from_codeword.translation = c;
     model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword, true});
     model.codebook.push_back(make_codeword(cloud, idx, world_from_codeword));
+    if (!o.keep_normals) drop_normals(model.codebook.back());
   }
   if (!added.empty()) {
     std::vector<Vec3f> all;
@@ -321,6 +328,7 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       Speculation& sp = speculation[b];
       const auto cw_index = static_cast<std::uint32_t>(model.codebook.size());
       model.codebook.push_back(std::move(sp.codeword));
+      if (!o.keep_normals) drop_normals(model.codebook.back());
       model.patches[rep] = {cw_index, sp.world_from_codeword, true};
       if (attempts[rep] < kMaxAttempts) ++retired;
       assigned[rep] = cw_index;

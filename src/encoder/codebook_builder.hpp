@@ -28,6 +28,10 @@ struct CodebookOptions {
   // encode lists its own points first and its margin after; the margin is its neighbours' to
   // cover (encoder/tiling.hpp).
   std::size_t covered_points = 0;
+  // The code words keep their points' normals once matched. They serve the matching (ICP is
+  // point-to-plane); a file that stores no normals needs none after it, and at level 5 they
+  // cost 12 bytes a code-word point, some 40 bytes a source point (code words overlap 3.5×).
+  bool keep_normals = true;
   Progress* progress = nullptr;
 };
 

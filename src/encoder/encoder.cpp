@@ -125,6 +125,7 @@ codec::BuildOptions build_options(const EncodeOptions& options) {
   if (options.tau) build.level.tau = *options.tau;
   if (options.step) build.level.position_step = *options.step;
   build.seed = options.seed;
+  build.codeword_normals = options.store_normals;
   build.progress = options.progress;
   return build;
 }

@@ -88,6 +88,7 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
   cb.epsilon = options.level.epsilon;
   cb.tau = options.level.tau;
   cb.covered_points = options.core_points;
+  cb.keep_normals = options.codeword_normals;
   cb.progress = options.progress;
   CodebookStats codebook_stats;
   EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);

@@ -28,6 +28,9 @@ struct BuildOptions {
   double spacing = 0;
   float patch_radius = 0;
   std::size_t core_points = 0;
+  // The code words keep their points' normals (CodebookOptions::keep_normals): only when the
+  // file stores them.
+  bool codeword_normals = true;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
 };

@@ -9,7 +9,7 @@
 namespace sspc::codec {
 namespace {
 
-constexpr std::string_view kJobMagic{"SSPCTJ01", 8};
+constexpr std::string_view kJobMagic{"SSPCTJ02", 8};
 constexpr std::string_view kResultMagic{"SSPCTR02", 8};
 
 class Writer {
@@ -80,6 +80,7 @@ std::string serialise_tile_job(const TileJob& job) {
   w.put(b.spacing);
   w.put(b.patch_radius);
   w.put<std::uint64_t>(b.core_points);
+  w.put<std::uint8_t>(b.codeword_normals ? 1 : 0);
   w.put<std::uint8_t>(static_cast<std::uint8_t>(job.normals.mode));
   w.put<std::int32_t>(job.normals.k);
   w.put<std::uint8_t>(job.normals.viewpoint ? 1 : 0);
@@ -99,7 +100,7 @@ StatusOr<TileJob> parse_tile_job(std::string_view bytes) {
   BuildOptions& b = job.build;
   std::int32_t patch_points = 0, k = 0;
   std::uint64_t seed = 0, core = 0;
-  std::uint8_t mode = 0, has_view = 0;
+  std::uint8_t mode = 0, has_view = 0, codeword_normals = 0;
   Vec3f view;
   SSPC_RETURN_IF_ERROR(r.get(patch_points));
   SSPC_RETURN_IF_ERROR(r.get(b.level.epsilon));
@@ -109,6 +110,7 @@ StatusOr<TileJob> parse_tile_job(std::string_view bytes) {
   SSPC_RETURN_IF_ERROR(r.get(b.spacing));
   SSPC_RETURN_IF_ERROR(r.get(b.patch_radius));
   SSPC_RETURN_IF_ERROR(r.get(core));
+  SSPC_RETURN_IF_ERROR(r.get(codeword_normals));
   SSPC_RETURN_IF_ERROR(r.get(mode));
   SSPC_RETURN_IF_ERROR(r.get(k));
   SSPC_RETURN_IF_ERROR(r.get(has_view));
@@ -118,7 +120,7 @@ StatusOr<TileJob> parse_tile_job(std::string_view bytes) {
   SSPC_RETURN_IF_ERROR(r.get_vec3s(job.part.positions));
   SSPC_RETURN_IF_ERROR(r.get_vec3s(job.part.normals));
   if (!r.at_end()) return corrupt("tile job: bytes after its end");
-  if (mode > static_cast<std::uint8_t>(NormalMode::kEstimate) || has_view > 1) {
+  if (mode > static_cast<std::uint8_t>(NormalMode::kEstimate) || has_view > 1 || codeword_normals > 1) {
     return corrupt("tile job: bad normal options");
   }
   if (core == 0 || core > job.part.size() ||
@@ -128,6 +130,7 @@ StatusOr<TileJob> parse_tile_job(std::string_view bytes) {
   b.level.patch_points = patch_points;
   b.seed = seed;
   b.core_points = core;
+  b.codeword_normals = codeword_normals != 0;
   job.normals.mode = static_cast<NormalMode>(mode);
   job.normals.k = k;
   if (has_view != 0) job.normals.viewpoint = view;
@@ -176,7 +179,9 @@ StatusOr<TileResult> parse_tile_result(std::string_view bytes) {
   for (Codeword& c : m.codebook) {
     SSPC_RETURN_IF_ERROR(r.get_vec3s(c.points));
     SSPC_RETURN_IF_ERROR(r.get_vec3s(c.normals));
-    if (c.normals.size() != c.points.size()) return corrupt("tile result: a code word's normals do not match");
+    if (!c.normals.empty() && c.normals.size() != c.points.size()) {
+      return corrupt("tile result: a code word's normals do not match");
+    }
   }
   std::uint64_t patches = 0;
   SSPC_RETURN_IF_ERROR(r.get(patches));

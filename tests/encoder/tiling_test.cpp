@@ -148,5 +148,34 @@ TEST(Tiling, ATiledModelDecodesLikeTheUntiledOne) {
   EXPECT_LE(holes(db), holes(da) + cloud.size() / 1000);
 }
 
+TEST(Tiling, ATiledModelStoresNormalsWhenAsked) {
+  // A tile's code words keep their normals only when the file stores them: the job must carry
+  // the choice to the worker, and the result must bring them back.
+  test::TempDir dir;
+  const PointCloud cloud = synthetic::torus(6000, 1.0, 0.35, {.seed = 5});
+  ASSERT_TRUE(cloud.has_normals());
+  EncodeOptions options;
+  options.level = 4;
+  options.patch_points = 256;
+  options.tile_points = 1600;
+  options.store_normals = true;
+  const auto stats = encode(cloud, dir.path() / "n.sspc", options);
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_GE(stats->tiles, 2u);
+  auto model = CompressedModel::open(dir.path() / "n.sspc");
+  ASSERT_TRUE(model.ok());
+  const PointCloud decoded = model->decode_all().value();
+  ASSERT_TRUE(decoded.has_normals());
+  // Each decoded normal is its nearest source point's, up to the codec's quantisation.
+  const KdTree3 source(cloud.positions);
+  std::size_t off = 0;
+  for (std::size_t i = 0; i < decoded.size(); ++i) {
+    float d2 = 0;
+    const std::uint32_t j = source.nearest(decoded.positions[i], &d2);
+    off += decoded.normals[i].dot(cloud.normals[j]) < 0.94f;  // 20 degrees
+  }
+  EXPECT_LE(off, decoded.size() / 100);
+}
+
 }  // namespace
 }  // namespace sspc::codec
