@@ -31,7 +31,7 @@ struct Neighbour {
 struct KnnTable {
   std::size_t k = 0;
   std::vector<std::uint32_t> indices;    // queries × k
-  std::vector<float> distances_squared;  // queries × k
+  std::vector<float> distances_squared;  // queries × k, or empty when not asked for
   std::vector<std::uint32_t> count;      // per query
 
   std::span<const std::uint32_t> row(std::size_t i) const {
@@ -70,8 +70,10 @@ class KdTree3 {
   // k nearest neighbours of every query, in parallel. `exclude_self`: queries are the tree's own
   // points and each one's own index is dropped from its row (k neighbours besides itself).
   // Advances `progress` (when given) by the number of queries answered; the caller owns the stage.
+  // Without `distances` the table holds no distances_squared (half its memory: normals need
+  // only the indices).
   KnnTable knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self = false,
-                     Progress* progress = nullptr) const;
+                     Progress* progress = nullptr, bool distances = true) const;
 
  private:
   struct Impl;

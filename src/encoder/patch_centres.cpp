@@ -106,7 +106,7 @@ void repulse(std::vector<Vec3f>& centres, float radius, const PointCloud& cloud,
 // C_p: how much the normals around p disagree; large on creases and ridges.
 std::vector<float> feature_strength(const PointCloud& cloud, const KdTree3& tree) {
   constexpr std::size_t kNeighbours = 8;
-  const KnnTable knn = tree.knn_batch(cloud.positions, kNeighbours, true);
+  const KnnTable knn = tree.knn_batch(cloud.positions, kNeighbours, true, nullptr, false);
   std::vector<float> strength(cloud.size(), 0.0f);
   parallel_for(0, cloud.size(), 4096, [&](std::size_t p) {
     const auto row = knn.row(p);

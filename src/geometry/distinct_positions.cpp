@@ -89,18 +89,18 @@ bool fill_row(const DistinctPositions& distinct, std::size_t k, std::span<const 
 
 }  // namespace
 
-KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress) {
+KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress, bool distances) {
   // A tree over the points visits all c points at a position for each of them: c² for the
   // position, harmless while c is about k or less (the search itself costs k per point).
   const DistinctPositions distinct(points, std::max<std::size_t>(2 * k, 32));
   if (!distinct.gathered()) {
-    return KdTree3(points).knn_batch(points, k, false, progress);
+    return KdTree3(points).knn_batch(points, k, false, progress, distances);
   }
 
   KnnTable table;
   table.k = k;
   table.indices.assign(points.size() * k, 0);
-  table.distances_squared.assign(points.size() * k, 0.0f);
+  if (distances) table.distances_squared.assign(points.size() * k, 0.0f);
   table.count.assign(points.size(), 0);
   if (k == 0) return table;
   const std::span<const Vec3f> positions = distinct.positions();
@@ -126,7 +126,7 @@ KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progres
       for (const std::uint32_t q : at_u) {
         for (std::size_t j = 0; j < row.size(); ++j) {
           table.indices[q * k + j] = row[j].second;
-          table.distances_squared[q * k + j] = row[j].first;
+          if (distances) table.distances_squared[q * k + j] = row[j].first;
         }
         table.count[q] = static_cast<std::uint32_t>(row.size());
       }

@@ -43,7 +43,9 @@ class DistinctPositions {
 
 // The k nearest of every point among the cloud's own points (itself included), exactly as
 // KdTree3(points).knn_batch(points, k) answers: ties by lower index. Over the distinct positions
-// when points coincide. Advances `progress` by one per point.
-KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress);
+// when points coincide. Advances `progress` by one per point. Without `distances`, the table
+// holds none (KdTree3::knn_batch).
+KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress,
+                           bool distances = true);
 
 }  // namespace sspc

@@ -122,11 +122,11 @@ std::size_t KdTree3::radius(const Vec3f& query, float r, std::vector<Neighbour>&
 }
 
 KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self,
-                            Progress* progress) const {
+                            Progress* progress, bool distances) const {
   KnnTable table;
   table.k = k;
   table.indices.assign(queries.size() * k, 0);
-  table.distances_squared.assign(queries.size() * k, 0.0f);
+  if (distances) table.distances_squared.assign(queries.size() * k, 0.0f);
   table.count.assign(queries.size(), 0);
   if (k == 0 || points_.empty()) return table;
   const std::size_t ask = std::min(k + (exclude_self ? 1 : 0), points_.size());
@@ -142,12 +142,12 @@ KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k, bool 
       const std::size_t q = own_points ? leaf_order[r] : r;
       const std::size_t found = knn(queries[q], ask, idx.data(), d2.data());
       std::uint32_t* out_i = table.indices.data() + q * k;
-      float* out_d = table.distances_squared.data() + q * k;
+      float* out_d = distances ? table.distances_squared.data() + q * k : nullptr;
       std::size_t n = 0;
       for (std::size_t j = 0; j < found && n < k; ++j) {
         if (exclude_self && idx[j] == q) continue;
         out_i[n] = idx[j];
-        out_d[n] = d2[j];
+        if (out_d != nullptr) out_d[n] = d2[j];
         ++n;
       }
       table.count[q] = static_cast<std::uint32_t>(n);

@@ -39,7 +39,8 @@ Status check_options(const PointCloud& cloud, const NormalOptions& options) {
 KnnTable neighbourhoods(const PointCloud& cloud, const NormalOptions& options) {
   progress_begin(options.progress, "normals: neighbours", cloud.size());
   const std::size_t k = std::min(static_cast<std::size_t>(options.k), cloud.size());
-  KnnTable table = knn_of_own_points(cloud.positions, k, options.progress);
+  // Indices only: PCA and the orientation need no distances (10.6M points: 0.68 of 1.4 GB).
+  KnnTable table = knn_of_own_points(cloud.positions, k, options.progress, false);
   progress_end(options.progress);
   return table;
 }

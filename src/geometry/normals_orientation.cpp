@@ -38,7 +38,10 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
 // The k-NN graph made symmetric: a point's neighbours are its own k-NN row plus every point
 // whose row names it. The reverse half is built here as compressed rows (CSR); the forward half
-// is the table itself.
+// is the table itself. An edge whose target's row names its source too is relaxed from the
+// forward half already, so the reverse half leaves it out: relaxing an edge twice changes
+// nothing, and on a surface most k-NN edges are mutual (autzen: the reverse half was 0.68 GB of
+// the orientation's 0.96).
 struct ReverseEdges {
   std::vector<std::uint64_t> offsets;  // points + 1
   std::vector<std::uint32_t> sources;
@@ -52,10 +55,15 @@ struct ReverseEdges {
 // point's list depends on thread timing; Prim's result does not depend on it (see
 // orient_normals_mst), so the orientation stays deterministic.
 ReverseEdges reverse_edges(const KnnTable& table, std::size_t points) {
+  const auto mutual = [&table](std::uint32_t i, std::uint32_t j) {
+    const auto row = table.row(j);
+    return std::find(row.begin(), row.end(), i) != row.end();
+  };
   std::vector<std::uint32_t> degree(points, 0);
   parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       for (const std::uint32_t j : table.row(i)) {
+        if (mutual(static_cast<std::uint32_t>(i), j)) continue;
         std::atomic_ref<std::uint32_t>(degree[j]).fetch_add(1, std::memory_order_relaxed);
       }
     }
@@ -69,6 +77,7 @@ ReverseEdges reverse_edges(const KnnTable& table, std::size_t points) {
   parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       for (const std::uint32_t j : table.row(i)) {
+        if (mutual(static_cast<std::uint32_t>(i), j)) continue;
         const std::uint64_t at =
             std::atomic_ref<std::uint64_t>(cursor[j]).fetch_add(1, std::memory_order_relaxed);
         reverse.sources[at] = static_cast<std::uint32_t>(i);

@@ -259,7 +259,7 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load(std::size_t b) const
     // compressed render of autzen, perf at 512², the image the same).
     SSPC_RETURN_IF_ERROR(check_coordinate_range(cloud.positions));
     const std::size_t k = std::min<std::size_t>(kNormalNeighbours, cloud.size() - 1);
-    const KnnTable table = KdTree3(cloud.positions).knn_batch(positions, k);
+    const KnnTable table = KdTree3(cloud.positions).knn_batch(positions, k, false, nullptr, false);
     normals.resize(kept.size());
     detail::estimate_normals_pca(cloud.positions, table, normals, nullptr);
   } else {

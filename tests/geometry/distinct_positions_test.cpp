@@ -65,6 +65,17 @@ TEST(DistinctPositions, KnnEqualsTheTreeOverThePoints) {
   }
 }
 
+TEST(DistinctPositions, KnnWithoutDistancesHasTheSameRows) {
+  for (const std::vector<Vec3f>& points : {coincident_cloud(60, 4), synthetic::sphere(2000, 1.0).positions}) {
+    const KnnTable with = knn_of_own_points(points, 16, nullptr);
+    const KnnTable without = knn_of_own_points(points, 16, nullptr, false);
+    EXPECT_TRUE(without.distances_squared.empty());
+    EXPECT_EQ(without.k, with.k);
+    EXPECT_EQ(without.count, with.count);
+    EXPECT_EQ(without.indices, with.indices);
+  }
+}
+
 TEST(DistinctPositions, KnnWithoutCoincidentPointsIsTheTree) {
   const std::vector<Vec3f> points = synthetic::sphere(2000, 1.0).positions;
   expect_same_table(knn_of_own_points(points, 12, nullptr), KdTree3(points).knn_batch(points, 12));

@@ -171,6 +171,11 @@ TEST(KdTree3, KnnBatchMatchesSingleQueriesAndExcludesSelf) {
   const KnnTable with_self = tree.knn_batch(points, k, false);
   const KnnTable without_self = tree.knn_batch(points, k, true);
   ASSERT_EQ(with_self.count.size(), points.size());
+  // Without distances: the same rows, and no distances held.
+  const KnnTable indices_only = tree.knn_batch(points, k, true, nullptr, false);
+  EXPECT_TRUE(indices_only.distances_squared.empty());
+  EXPECT_EQ(indices_only.indices, without_self.indices);
+  EXPECT_EQ(indices_only.count, without_self.count);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto expected = brute_sorted(points, points[i]);
     ASSERT_EQ(with_self.count[i], k);
