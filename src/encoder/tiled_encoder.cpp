@@ -394,6 +394,9 @@ StatusOr<EncodeStats> TiledEncoder::write(const std::filesystem::path& output, s
 // peaked at 1,926 MB (337 bytes a point of a tile), 100M generated points in 26 tiles of at most
 // 5.75M at 2,467 MB (at least 407); 470 leaves room for a tile whose margin is relatively larger.
 // (Without kept memory 100M peaked at 1,847 MB, but ran at 98k points/s instead of 126k.)
+// Those figures predate the encoder's memory changes (CHANGELOG, "Encoding holds a third of the
+// memory"), which left 470 conservative: 1B points at level 5 under 2 GiB then peaked at
+// 1,005 MiB (docs/RESULTS.md, "Scale"). Larger tiles would cost fewer margins; to be re-measured.
 // What the writer holds for the whole model grows with the cloud: a patch record (56 bytes) per
 // patch until the model is written, twice that while its array grows. A level's patches hold
 // some 900 points each (1B generated points made 1.1M patches at level 5), so one per 512 points
@@ -452,8 +455,7 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
   progress_begin(progress, "tiles", tile_count(), "tiles");
   for (std::size_t t = 0; t < tile_count(); ++t) {
     // The job's bytes are freed once parsed, and its points once encoded, so that neither is
-    // held while the result is added beside the model's growing records: at 1B points under
-    // 2 GiB the job alive during add() made the peak 1% over the limit (docs/RESULTS.md, Scale).
+    // held while the result is added beside the model's growing records.
     StatusOr<codec::TileJob> job = internal_error("no job");
     {
       SSPC_ASSIGN_OR_RETURN(const std::string bytes, this->job(t));
