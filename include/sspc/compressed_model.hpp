@@ -140,6 +140,20 @@ class CompressedModel {
 
   ModelInfo info() const;
 
+  // Random queries (decode_patch, decode_box, patch, codeword) keep the blocks they decode in a
+  // least-recently-used cache bounded in bytes (kDefaultCacheBudget unless set), shared by the
+  // threads querying the model; decode_all and decode_chunks decode their own. A budget of 0
+  // keeps only the blocks last used. The cache is not part of the model's value: these may be
+  // called on a const model, from any thread, while queries run (a smaller budget evicts at
+  // once). cache_peak_bytes(): the most the cache has held since open or the
+  // last reset_cache_peak().
+  static constexpr std::uint64_t kDefaultCacheBudget = std::uint64_t{64} << 20;
+  void set_cache_budget(std::uint64_t bytes) const;
+  std::uint64_t cache_budget() const;
+  std::uint64_t cache_bytes() const;
+  std::uint64_t cache_peak_bytes() const;
+  void reset_cache_peak() const;
+
  private:
   struct Impl;
   explicit CompressedModel(std::unique_ptr<Impl> impl);

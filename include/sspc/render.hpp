@@ -100,9 +100,12 @@ class RenderScene {
   // A compressed model, rendered directly: the MLS surface of its decoded points, seamless
   // across instances, built brick by brick as rays reach them from what the model's random-access
   // API decodes there (with PCA normals, k = 16, when the model stores none, as a decoded cloud
-  // gets them), and kept in a cache of at most options.memory_budget_bytes, the least recently
-  // used evicted. The image is that of the decoded model's render (up to normals estimated in
-  // bricks rather than over the whole decode), whatever the budget. The scene shares the model, which must not change while it lives.
+  // gets them), and kept in a cache, the least recently used evicted. options.memory_budget_bytes
+  // bounds the two caches together: an eighth goes to the model's own cache of decoded blocks
+  // (the scene sets CompressedModel::set_cache_budget), the rest to the bricks; a frame's
+  // scene_bytes counts both at their peaks. The image is that of the decoded model's render (up
+  // to normals estimated in bricks rather than over the whole decode), whatever the budget. The
+  // scene shares the model, which must not change while it lives.
   static StatusOr<std::unique_ptr<RenderScene>> from_compressed(std::shared_ptr<const CompressedModel> model,
                                                                 const SceneOptions& options = {});
 

@@ -30,6 +30,12 @@ struct DecodedCodewords {
   std::vector<float> radius;           // per code word: sqrt(max norm2), 0 when empty
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(radius.size()); }
+  // The bytes it holds, as the model's block cache counts them.
+  std::uint64_t memory_bytes() const {
+    return sizeof(*this) + offsets.capacity() * sizeof(std::uint32_t) + points.capacity() * sizeof(Vec3f) +
+           norm2.capacity() * sizeof(float) + normals.capacity() * sizeof(Vec3f) + colours.capacity() * sizeof(Rgb8) +
+           radius.capacity() * sizeof(float);
+  }
 };
 
 // One patch block, decoded: patches [first, first + count).
@@ -43,6 +49,11 @@ struct DecodedPatches {
   std::vector<std::array<std::span<const std::byte>, 4>> attribute_streams;
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(codeword.size()); }
+  std::uint64_t memory_bytes() const {
+    return sizeof(*this) + codeword.capacity() * sizeof(std::uint32_t) +
+           rotation.capacity() * sizeof(Eigen::Matrix3f) + centre.capacity() * sizeof(Vec3f) +
+           attribute_streams.capacity() * sizeof(attribute_streams[0]);
+  }
 };
 
 // The most points a version 2 code-book payload may hold per byte: a range-coded position

@@ -60,7 +60,7 @@ class CachedSource final : public BlockSource {
     if (out) return Status();
     auto block = std::make_shared<DecodedPatches>();
     SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_patches(b, *block)));
-    patch_cache_.insert(b, block);
+    patch_cache_.insert(b, block, block->memory_bytes());
     out = std::move(block);
     return Status();
   }
@@ -69,7 +69,7 @@ class CachedSource final : public BlockSource {
     if (out) return Status();
     auto block = std::make_shared<DecodedCodewords>();
     SSPC_RETURN_IF_ERROR(after_read(mapped_, reader_.read_codewords(b, *block)));
-    codeword_cache_.insert(b, block);
+    codeword_cache_.insert(b, block, block->memory_bytes());
     out = std::move(block);
     return Status();
   }
@@ -89,8 +89,11 @@ struct CompressedModel::Impl {
   codec::ContainerReader reader;
   codec::BlockIndex index;
   float coordinate_scale = 0;  // largest |coordinate| of any block box: scales the search slack
-  mutable codec::BlockCache<DecodedPatches> patch_cache{4096};
-  mutable codec::BlockCache<DecodedCodewords> codeword_cache{512};
+  // The cache budget split: a patch block is small (autzen level 5: 64 patches, 7.4 KB), and a
+  // query needs its neighbours' blocks as well as its own.
+  mutable codec::BlockCache<DecodedPatches> patch_cache{CompressedModel::kDefaultCacheBudget / 8};
+  mutable codec::BlockCache<DecodedCodewords> codeword_cache{CompressedModel::kDefaultCacheBudget -
+                                                             CompressedModel::kDefaultCacheBudget / 8};
 
   Status init(std::span<const std::byte> bytes, std::string name) {
     SSPC_ASSIGN_OR_RETURN(reader, codec::ContainerReader::open(bytes, std::move(name)));
@@ -508,6 +511,28 @@ Status CompressedModel::verify() const {
     if (!all.ok()) return all.status();
   }
   return Status();
+}
+
+void CompressedModel::set_cache_budget(std::uint64_t bytes) const {
+  impl_->patch_cache.set_budget(bytes / 8);
+  impl_->codeword_cache.set_budget(bytes - bytes / 8);
+}
+
+std::uint64_t CompressedModel::cache_budget() const {
+  return impl_->patch_cache.budget() + impl_->codeword_cache.budget();
+}
+
+std::uint64_t CompressedModel::cache_bytes() const {
+  return impl_->patch_cache.bytes() + impl_->codeword_cache.bytes();
+}
+
+std::uint64_t CompressedModel::cache_peak_bytes() const {
+  return impl_->patch_cache.peak_bytes() + impl_->codeword_cache.peak_bytes();
+}
+
+void CompressedModel::reset_cache_peak() const {
+  impl_->patch_cache.reset_peak();
+  impl_->codeword_cache.reset_peak();
 }
 
 ModelInfo CompressedModel::info() const {

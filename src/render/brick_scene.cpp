@@ -248,7 +248,7 @@ StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) co
   if (stats != nullptr) {
     stats->build_seconds = build_seconds_;
     std::lock_guard lock(mutex_);
-    stats->scene_bytes = memory_bytes_ + peak_cached_bytes_;
+    stats->scene_bytes = memory_bytes_ + peak_cached_bytes_ + source_peak_bytes();
     stats->bytes_read = bytes_loaded() - read_before;
     stats->pages_read = loads_ - loads_before;
   }

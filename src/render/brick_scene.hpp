@@ -60,6 +60,9 @@ class BrickScene : public RenderScene {
   virtual StatusOr<SurfacePtr> load(std::size_t b) const = 0;
   // What a frame reports as read for its bricks (a paged scene's file bytes); 0 by default.
   virtual std::uint64_t bytes_loaded() const { return 0; }
+  // The most its source has held for load() besides the bricks (a compressed model's cache of
+  // decoded blocks), counted in a frame's scene_bytes; 0 by default.
+  virtual std::uint64_t source_peak_bytes() const { return 0; }
 
   float edge_ = 0;
   float bandwidth_ = 0;  // h of every brick's surface

@@ -48,6 +48,9 @@ constexpr float kNormalReach = 4.0f;
 constexpr double kNormalReachQuantile = 0.999;
 constexpr double kMaxNormalReach = 32;
 
+// The part of the memory budget given to the model's cache of decoded blocks: 1/kModelCacheShare.
+constexpr std::uint64_t kModelCacheShare = 8;
+
 // Patches sampled to measure the decoded model's spacing.
 constexpr std::size_t kSpacingPatches = 1024;
 // Points whose nearest neighbour is measured, about (nominal_spacing's sample).
@@ -137,6 +140,7 @@ class CompressedScene final : public render::BrickScene {
 
  private:
   StatusOr<SurfacePtr> load(std::size_t b) const override;
+  std::uint64_t source_peak_bytes() const override { return model_->cache_peak_bytes(); }
 
   std::shared_ptr<const CompressedModel> model_;
   bool has_normals_ = false;
@@ -170,6 +174,13 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   }
   model_ = std::move(model);
   has_normals_ = info.has_normals;
+  // The model's decoded blocks count in the budget: left at its own default they held autzen's
+  // whole code book decoded (160 MB) beside 64 MiB of bricks. An eighth of the budget holds the
+  // blocks a brick's decode needs many times over (autzen level 5: 0.45 MB a code-word block).
+  const std::uint64_t model_budget = budget / kModelCacheShare;
+  model_->set_cache_budget(model_budget);
+  model_->reset_cache_peak();
+  budget -= model_budget;
   SSPC_ASSIGN_OR_RETURN(const DecodedSampling sampling, decoded_sampling(*model_));
   const double spacing = sampling.spacing;
   if (!(spacing >= kMinSpacing && spacing <= 10.0 * static_cast<double>(info.patch_radius))) {

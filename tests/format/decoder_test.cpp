@@ -300,6 +300,8 @@ TEST(DecoderTest, ConcurrentQueriesAgree) {
     threads.emplace_back([&, t] {
       test::TestRng rng(static_cast<std::uint32_t>(100 + t));
       for (int i = 0; i < 300; ++i) {
+        // The cache's budget changed under the others' queries: they evict, and still agree.
+        if (t == 0 && i % 50 == 0) f.compressed.set_cache_budget(i % 100 == 0 ? 0 : std::uint64_t{1} << 20);
         const std::size_t k = rng.below(static_cast<std::uint32_t>(f.compressed.patch_count()));
         auto p = f.compressed.decode_patch(k);
         if (!p.ok() || p->positions != slice(f.all, f.offsets[k], f.offsets[k + 1]).positions) {
@@ -310,6 +312,36 @@ TEST(DecoderTest, ConcurrentQueriesAgree) {
   }
   for (auto& t : threads) t.join();
   EXPECT_EQ(mismatches.load(), 0);
+}
+
+// The cache of decoded blocks holds what its budget allows, and what it evicts is decoded again
+// the same: with room for all, decoding every patch keeps every block; with a budget of 0 each
+// of its shards keeps only the block it last took, fewer than the model has.
+TEST(DecoderTest, BlockCacheKeepsWithinItsBudget) {
+  QuantOptions small_blocks = eight_patch_blocks();
+  small_blocks.patches_per_block = 2;
+  Fixture f = make_fixture(default_shape(), small_blocks);
+  ASSERT_EQ(f.compressed.info().sections[2].name, "patch blocks");
+  ASSERT_GT(f.compressed.info().sections[2].blocks, 32u);  // more than the cache's 16 shards
+  EXPECT_EQ(f.compressed.cache_budget(), CompressedModel::kDefaultCacheBudget);
+  const std::uint64_t full = f.compressed.cache_bytes();
+  EXPECT_GT(full, 0u);
+  EXPECT_EQ(f.compressed.cache_peak_bytes(), full);  // nothing evicted
+  f.compressed.set_cache_budget(0);  // evicts at once
+  const std::uint64_t kept = f.compressed.cache_bytes();
+  EXPECT_LT(kept, full);
+  EXPECT_EQ(f.compressed.cache_peak_bytes(), full);
+  f.compressed.reset_cache_peak();
+  EXPECT_EQ(f.compressed.cache_peak_bytes(), kept);
+  for (int round = 0; round < 2; ++round) {
+    for (std::size_t k = 0; k < f.compressed.patch_count(); ++k) {
+      auto p = f.compressed.decode_patch(k);
+      ASSERT_TRUE(p.ok());
+      expect_same(*p, slice(f.all, f.offsets[k], f.offsets[k + 1]), "patch " + std::to_string(k));
+    }
+    EXPECT_LT(f.compressed.cache_bytes(), full);
+  }
+  EXPECT_EQ(f.compressed.cache_budget(), 0u);
 }
 
 }  // namespace
