@@ -37,6 +37,38 @@ Vec3f id_colour(std::uint32_t id) {
 
 }  // namespace
 
+std::vector<std::pair<int, int>> hilbert_tiles(int width, int height) {
+  const int tx = (width + kTile - 1) / kTile, ty = (height + kTile - 1) / kTile;
+  int n = 1;
+  while (n < tx || n < ty) n *= 2;
+  std::vector<std::pair<int, int>> tiles;
+  tiles.reserve(static_cast<std::size_t>(tx) * static_cast<std::size_t>(ty));
+  // Position d along the curve over the n × n square, to (x, y): quadrant by quadrant from the
+  // coarsest, each step rotating the sub-square so that the curve enters and leaves it at the
+  // corners its neighbours meet. Tiles of the square outside the image are skipped.
+  const auto total = static_cast<std::uint64_t>(n) * static_cast<std::uint64_t>(n);
+  for (std::uint64_t d = 0; d < total; ++d) {
+    std::uint64_t rest = d;
+    int x = 0, y = 0;
+    for (int s = 1; s < n; s *= 2) {
+      const int rx = static_cast<int>((rest / 2) & 1u);
+      const int ry = static_cast<int>((rest ^ static_cast<std::uint64_t>(rx)) & 1u);
+      if (ry == 0) {
+        if (rx == 1) {
+          x = s - 1 - x;
+          y = s - 1 - y;
+        }
+        std::swap(x, y);
+      }
+      x += s * rx;
+      y += s * ry;
+      rest /= 4;
+    }
+    if (x < tx && y < ty) tiles.emplace_back(x * kTile, y * kTile);
+  }
+  return tiles;
+}
+
 Status check_frame(const FrameOptions& o) {
   if (o.width < 1 || o.height < 1 || o.width > 16384 || o.height > 16384) {
     return invalid_argument("image size must be 1..16384 pixels per side");

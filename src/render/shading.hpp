@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -47,25 +48,43 @@ class Frame {
   std::vector<std::uint32_t> id_;
 };
 
-// Traces every pixel, rows in parallel, with trace(x, y, frame, evaluations) → whether it hit
-// (it may set the pixel in `frame` and add its MLS evaluations), then shades the frame. Fills
-// the tracing half of `stats` (rays, hits, evaluations, render seconds) when given.
+// The tiles of a width × height image, kTile pixels a side (the last row and column of tiles
+// may be smaller), in the order of a Hilbert curve over the grid of tiles: consecutive tiles
+// are neighbours, so the rays of a stretch of tiles cross few bricks of a scene, and a thread
+// given a stretch needs few bricks at a time. Traced by rows of pixels instead, autzen at level
+// 5 (1024², 2 threads, 64 MiB budget) built its 380 bricks 1,319 times; by tiles in this order
+// 525 times (and 380 with room for all), in 43.7 CPU s instead of 162. Handing the tiles out
+// one at a time in this order to whichever thread is free built fewer (468) but left the two
+// threads waiting on each other's bricks: 29.5 s a frame against 22.2. Each is (x0, y0) of its
+// tile.
+inline constexpr int kTile = 16;
+std::vector<std::pair<int, int>> hilbert_tiles(int width, int height);
+
+// Traces every pixel, stretches of hilbert_tiles' order in parallel, with trace(x, y, frame,
+// evaluations) → whether it hit (it may set the pixel in `frame` and add its MLS evaluations),
+// then shades the frame. Fills the tracing half of `stats` (rays, hits, evaluations, render
+// seconds) when given.
 template <typename Trace>
 Image trace_image(const FrameOptions& o, const PinholeCamera& camera, Trace&& trace, RenderStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   Frame frame(o.width, o.height);
   std::atomic<std::uint64_t> hits{0}, evaluations{0};
-  progress_begin(o.progress, "render", static_cast<std::uint64_t>(o.height), "rows");
-  parallel_for_ranges(0, static_cast<std::size_t>(o.height), 4, [&](std::size_t y0, std::size_t y1) {
+  const std::vector<std::pair<int, int>> tiles = hilbert_tiles(o.width, o.height);
+  progress_begin(o.progress, "render", tiles.size(), "tiles");
+  parallel_for_ranges(0, tiles.size(), 1, [&](std::size_t begin, std::size_t end) {
     std::uint64_t local_hits = 0, local_evaluations = 0;
-    for (std::size_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < o.width; ++x) {
-        if (trace(x, static_cast<int>(y), frame, local_evaluations)) ++local_hits;
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto [x0, y0] = tiles[i];
+      const int x1 = std::min(o.width, x0 + kTile), y1 = std::min(o.height, y0 + kTile);
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) {
+          if (trace(x, y, frame, local_evaluations)) ++local_hits;
+        }
       }
     }
     hits += local_hits;
     evaluations += local_evaluations;
-    progress_advance(o.progress, y1 - y0);
+    progress_advance(o.progress, end - begin);
   });
   progress_end(o.progress);
   Image image = frame.shade(o.shade, camera);

@@ -18,6 +18,7 @@
 
 #include "render/camera.hpp"
 #include "render/mls_surface.hpp"
+#include "render/shading.hpp"
 #include "sspc/render.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
@@ -433,6 +434,27 @@ TEST(Renderer, DirectRenderOfTheBunnyMatchesTheRenderOfItsDecode) {
 TEST(Renderer, DirectRenderOfASphereOfManyPatchesMatchesItsDecode) {
   SphereScene scene;
   expect_direct_matches_decoded(scene.cloud, 9, scene.options);
+}
+
+// Every tile of the image once, each a neighbour of the one before where the tiles fill a square
+// of a power of two a side (elsewhere the curve leaves the image and comes back).
+TEST(Renderer, HilbertTilesCoverTheImageOnceInNeighbourOrder) {
+  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{17, 5}, std::pair{1000, 300}, std::pair{256, 256}}) {
+    const auto tiles = render::hilbert_tiles(w, h);
+    const int tx = (w + render::kTile - 1) / render::kTile, ty = (h + render::kTile - 1) / render::kTile;
+    ASSERT_EQ(tiles.size(), static_cast<std::size_t>(tx * ty)) << w << "x" << h;
+    std::vector<int> seen(static_cast<std::size_t>(tx * ty), 0);
+    for (const auto& [x, y] : tiles) {
+      ASSERT_TRUE(x % render::kTile == 0 && y % render::kTile == 0 && x < w && y < h);
+      ++seen[static_cast<std::size_t>(y / render::kTile * tx + x / render::kTile)];
+    }
+    EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](int n) { return n == 1; }));
+  }
+  const auto square = render::hilbert_tiles(256, 256);
+  for (std::size_t i = 1; i < square.size(); ++i) {
+    EXPECT_EQ(std::abs(square[i].first - square[i - 1].first) + std::abs(square[i].second - square[i - 1].second),
+              render::kTile) << i;
+  }
 }
 
 // A compressed scene's image depends neither on its budget nor on the thread count, and a
