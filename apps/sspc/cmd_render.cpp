@@ -18,6 +18,7 @@
 #include "core/atomic_file.hpp"
 
 #include "command.hpp"
+#include "sspc/allocator.hpp"
 #include "sspc/io.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/render.hpp"
@@ -218,9 +219,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   // The scene, built once for every frame.
   StatusOr<std::unique_ptr<RenderScene>> scene = invalid_argument("no scene");
   std::uint64_t points = 0;
+  std::size_t resident_before = 0;  // before the scene is built, its input read
   if (is_sspc_file(o.input)) {
     auto model = open_model(o.input);
     if (!model.ok()) return report_failure(model.status());
+    resident_before = resident_bytes();
     progress_stages(progress.get(), 2);  // the scene's bricks, the image's rows
     points = model->info().source_points;
     if (o.budget_mib > 0) scene_options.memory_budget_bytes = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
@@ -238,6 +241,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     normals.progress = progress.get();
     if (Status s = ensure_normals(*cloud, normals); !s.ok()) return report_failure(s.with_context(o.input));
     points = cloud->size();
+    resident_before = resident_bytes();
     if (o.budget_mib > 0) {
       scene_options.memory_budget_bytes = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
       const std::filesystem::path dir =
@@ -313,6 +317,8 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     if (Status s = staging.commit(); !s.ok()) return report_failure(s);
   }
 
+  // The scene still held, each frame's buffers freed (the last image is not).
+  const std::size_t resident_after = resident_bytes();
   RenderStats total;
   std::vector<double> seconds;
   std::uint64_t bytes = (*scene)->memory_bytes();
@@ -352,6 +358,8 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         render_cpu_seconds > 0 ? static_cast<double>(total.rays) / render_cpu_seconds : 0.0;
     json["scene_bytes"] = bytes;
     json["scene_bytes_per_point"] = points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0;
+    json["resident_growth_bytes"] =
+        resident_after > resident_before ? static_cast<std::uint64_t>(resident_after - resident_before) : 0;
     json["bytes_read"] = total.bytes_read;
     json["pages_read"] = total.pages_read;
     if (o.budget_mib > 0) {
