@@ -125,7 +125,7 @@ class BrickScene::Field {
   float empty_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const {
     const Vec3f x = o + t * d;
     int c[3];
-    if (!scene_.brick_of(x, c)) return std::numeric_limits<float>::infinity();  // beyond every brick
+    if (!locate(x, c)) return std::numeric_limits<float>::infinity();  // beyond every brick
     const float exit = std::max(exit_of(c, o, d), t) + 1e-3f * scene_.edge_;
     const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
     if (!scene_.occupied_[b]) return exit;
@@ -140,7 +140,7 @@ class BrickScene::Field {
   float skip_until(const Vec3f& o, const Vec3f& d, float t, float t_max) const {
     const Vec3f x = o + t * d;
     int c[3];
-    if (!scene_.brick_of(x, c)) return t;
+    if (!locate(x, c)) return t;
     const MlsSurface* s = at(x);
     if (s == nullptr) return t;
     return std::min(s->skip_until(o, d, t, t_max), std::max(exit_of(c, o, d), t));
@@ -152,6 +152,28 @@ class BrickScene::Field {
   }
 
  private:
+  // scene_.brick_of(x, c), answered without its three divisions while x stays well inside the
+  // brick last found (7.5% of a compressed render of dragon_scans at level 5 went to brick_of;
+  // a march samples a brick many times in a row). "Well inside" by a margin far above the
+  // rounding of brick_of's arithmetic, so the answer is always brick_of's.
+  bool locate(const Vec3f& x, int c[3]) const {
+    if (x.x() > inner_lo_.x() && x.x() < inner_hi_.x() && x.y() > inner_lo_.y() && x.y() < inner_hi_.y() &&
+        x.z() > inner_lo_.z() && x.z() < inner_hi_.z()) {
+      std::copy(last_, last_ + 3, c);
+      return true;
+    }
+    if (!scene_.brick_of(x, c)) return false;
+    std::copy(c, c + 3, last_);
+    const float edge = scene_.edge_;
+    for (int a = 0; a < 3; ++a) {
+      const float lo = scene_.origin_[a] + static_cast<float>(c[a]) * edge;
+      const float margin =
+          1e-3f * edge + 4e-7f * (std::abs(scene_.origin_[a]) + std::abs(lo) + (static_cast<float>(c[a]) + 1) * edge);
+      inner_lo_[a] = lo + margin;
+      inner_hi_[a] = lo + edge - margin;  // empty (lo > hi) when the margin is the brick's size
+    }
+    return true;
+  }
   // Where the ray leaves brick c.
   float exit_of(const int c[3], const Vec3f& o, const Vec3f& d) const {
     Vec3f lo, hi;
@@ -164,7 +186,7 @@ class BrickScene::Field {
   // The surface of the occupied brick holding x, else null.
   const MlsSurface* at(const Vec3f& x) const {
     int c[3];
-    if (!scene_.brick_of(x, c)) return nullptr;
+    if (!locate(x, c)) return nullptr;
     const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
     return scene_.occupied_[b] ? surface(b) : nullptr;
   }
@@ -184,6 +206,11 @@ class BrickScene::Field {
   }
 
   const BrickScene& scene_;
+  // The brick locate() last found, and the part of its box where its answer needs no division
+  // (empty before the first).
+  mutable int last_[3] = {0, 0, 0};
+  mutable Vec3f inner_lo_ = Vec3f::Constant(std::numeric_limits<float>::infinity());
+  mutable Vec3f inner_hi_ = Vec3f::Constant(-std::numeric_limits<float>::infinity());
   mutable std::pair<std::size_t, SurfacePtr> recent_[2];
   mutable Status status_;
 };
@@ -197,15 +224,14 @@ bool BrickScene::brick_of(const Vec3f& x, int c[3]) const {
   return true;
 }
 
-StatusOr<std::optional<RayHit>> BrickScene::trace(const Vec3f& eye, const Vec3f& d, float t_min, float t_max,
-                                                  bool want_id, std::uint64_t& evaluations) const {
+StatusOr<std::optional<RayHit>> BrickScene::trace(const Field& field, const Vec3f& eye, const Vec3f& d, float t_min,
+                                                  float t_max, bool want_id, std::uint64_t& evaluations) const {
   const std::optional<RayHit> miss;
   // The ray's interval in the grid of bricks.
   float t0 = std::max(t_min, 0.0f), t1 = t_max;
   const Vec3f far_corner = origin_ + edge_ * Vec3f(static_cast<float>(dims_[0]), static_cast<float>(dims_[1]),
                                                    static_cast<float>(dims_[2]));
   if (!clip_to_box(origin_, far_corner, eye, d, t0, t1)) return miss;
-  const Field field(*this);
   const auto hit = march_ray(field, eye, d, t0, t1);
   SSPC_RETURN_IF_ERROR(field.status());
   if (!hit) return miss;
@@ -217,7 +243,9 @@ StatusOr<std::optional<RayHit>> BrickScene::intersect(const Vec3f& origin, const
                                                       float t_max) const {
   SSPC_ASSIGN_OR_RETURN(const UnitRay ray, UnitRay::make(origin, direction, t_min, t_max));
   std::uint64_t evaluations = 0;
-  SSPC_ASSIGN_OR_RETURN(std::optional<RayHit> hit, trace(ray.origin, ray.direction, ray.t_min, ray.t_max, true, evaluations));
+  const Field field(*this);
+  SSPC_ASSIGN_OR_RETURN(std::optional<RayHit> hit,
+                        trace(field, ray.origin, ray.direction, ray.t_min, ray.t_max, true, evaluations));
   if (hit) hit->t /= ray.scale;
   return hit;
 }
@@ -229,19 +257,25 @@ StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) co
   std::mutex failure_mutex;
   Status failure;
   const bool want_id = o.shade == Shade::kCodeword;
+  // One Field for each stretch of tiles a thread traces, not one a ray: the bricks it holds stay
+  // at hand from ray to ray without the cache's lock. Made a ray, every ray took the lock and
+  // copied a brick's shared pointer, and on 2 threads the compressed dragon_scans (level 5,
+  // 1024², bricks built) rendered in 1.4x the CPU time of 1 thread.
   Image image = trace_image(
       o, camera,
-      [&](int px, int py, Frame& frame, std::uint64_t& evaluations) {
-        auto hit = trace(camera.eye(), camera.direction(px, py), 0, std::numeric_limits<float>::infinity(), want_id,
-                         evaluations);
-        if (!hit.ok()) {
-          std::lock_guard lock(failure_mutex);
-          if (failure.ok()) failure = hit.status();
-          return false;
-        }
-        if (!*hit) return false;
-        frame.set(px, py, (*hit)->t, (*hit)->normal, (*hit)->id);
-        return true;
+      [&] {
+        return [&, field = std::make_unique<Field>(*this)](int px, int py, Frame& frame, std::uint64_t& evaluations) {
+          auto hit = trace(*field, camera.eye(), camera.direction(px, py), 0, std::numeric_limits<float>::infinity(),
+                           want_id, evaluations);
+          if (!hit.ok()) {
+            std::lock_guard lock(failure_mutex);
+            if (failure.ok()) failure = hit.status();
+            return false;
+          }
+          if (!*hit) return false;
+          frame.set(px, py, (*hit)->t, (*hit)->normal, (*hit)->id);
+          return true;
+        };
       },
       stats);
   SSPC_RETURN_IF_ERROR(failure);

@@ -71,12 +71,12 @@ class BrickScene : public RenderScene {
  private:
   // The brick's surface, from the cache or built by load().
   StatusOr<SurfacePtr> surface(std::size_t b) const;
-  // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], marched across the bricks;
-  // `evaluations` gets the MLS evaluations; the id only when `want_id`.
-  StatusOr<std::optional<RayHit>> trace(const Vec3f& o, const Vec3f& d, float t_min, float t_max, bool want_id,
-                                        std::uint64_t& evaluations) const;
-
   class Field;  // the surface over bricks, as a ray's march asks for it
+
+  // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], marched across the bricks of
+  // `field` (one thread's); `evaluations` gets the MLS evaluations; the id only when `want_id`.
+  StatusOr<std::optional<RayHit>> trace(const Field& field, const Vec3f& o, const Vec3f& d, float t_min, float t_max,
+                                        bool want_id, std::uint64_t& evaluations) const;
   // The brick holding x (floor of its grid coordinates), or false outside the grid.
   bool brick_of(const Vec3f& x, int c[3]) const;
 

@@ -41,13 +41,15 @@ class PointCloudScene final : public RenderScene {
     const render::PinholeCamera camera(o.camera, o.width, o.height);
     Image image = render::trace_image(
         o, camera,
-        [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
-          const auto hit = surface_.intersect(camera.eye(), camera.direction(x, y), 0,
-                                              std::numeric_limits<float>::infinity());
-          if (!hit) return false;
-          evaluations += static_cast<std::uint64_t>(hit->evaluations);
-          frame.set(x, y, hit->t, hit->normal, 0);
-          return true;
+        [&] {
+          return [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
+            const auto hit = surface_.intersect(camera.eye(), camera.direction(x, y), 0,
+                                                std::numeric_limits<float>::infinity());
+            if (!hit) return false;
+            evaluations += static_cast<std::uint64_t>(hit->evaluations);
+            frame.set(x, y, hit->t, hit->normal, 0);
+            return true;
+          };
         },
         stats);
     if (stats != nullptr) {

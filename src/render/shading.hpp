@@ -60,12 +60,13 @@ class Frame {
 inline constexpr int kTile = 16;
 std::vector<std::pair<int, int>> hilbert_tiles(int width, int height);
 
-// Traces every pixel, stretches of hilbert_tiles' order in parallel, with trace(x, y, frame,
-// evaluations) → whether it hit (it may set the pixel in `frame` and add its MLS evaluations),
-// then shades the frame. Fills the tracing half of `stats` (rays, hits, evaluations, render
+// Traces every pixel, stretches of hilbert_tiles' order in parallel, each stretch with a tracer
+// of its own from make_trace(): trace(x, y, frame, evaluations) → whether it hit (it may set
+// the pixel in `frame` and add its MLS evaluations, and keep what it likes from ray to ray of
+// its stretch); then shades the frame. Fills the tracing half of `stats` (rays, hits, evaluations, render
 // seconds) when given.
-template <typename Trace>
-Image trace_image(const FrameOptions& o, const PinholeCamera& camera, Trace&& trace, RenderStats* stats) {
+template <typename MakeTrace>
+Image trace_image(const FrameOptions& o, const PinholeCamera& camera, MakeTrace&& make_trace, RenderStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   Frame frame(o.width, o.height);
   std::atomic<std::uint64_t> hits{0}, evaluations{0};
@@ -73,6 +74,7 @@ Image trace_image(const FrameOptions& o, const PinholeCamera& camera, Trace&& tr
   progress_begin(o.progress, "render", tiles.size(), "tiles");
   parallel_for_ranges(0, tiles.size(), 1, [&](std::size_t begin, std::size_t end) {
     std::uint64_t local_hits = 0, local_evaluations = 0;
+    auto trace = make_trace();
     for (std::size_t i = begin; i < end; ++i) {
       const auto [x0, y0] = tiles[i];
       const int x1 = std::min(o.width, x0 + kTile), y1 = std::min(o.height, y0 + kTile);
