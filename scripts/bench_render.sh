@@ -48,11 +48,15 @@ else
 fi
 mkdir -p "$WORK" docs/results
 csv=docs/results/render_bench.csv
-echo "scan,model,points,size,threads,build_s,render_s,mrays_s,mrays_cpu_s,hits,evaluations_per_hit,scene_bytes_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
+echo "scan,model,points,size,threads,build_s,render_s,mrays_s,mrays_cpu_s,warm_render_s,mrays_s_warm,hits,evaluations_per_hit,scene_bytes_per_point,resident_growth_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
 
-# One configuration: three renders, the median render time; build time and memory of the first.
+# One configuration: three renders, each a process of its own (a compressed scene builds its
+# bricks as the frame's rays reach them), the median render time; build time and memory of the
+# first. Then the warm frame: one process renders the view twice (a camera path of two equal
+# lines), and the second frame's time is the scene's once built (a compressed model's bricks
+# cached, as along a camera path).
 measure() {  # scan model-label input [render options]
-  local scan="$1" label="$2" input="$3" runs=()
+  local scan="$1" label="$2" input="$3" runs=() warm=()
   shift 3
   for r in 1 2 3; do
     /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" \
@@ -60,16 +64,27 @@ measure() {  # scan model-label input [render options]
     runs+=("$WORK/run$r.json")
     rss_kib[$r]=$(tail -1 "$WORK/rss")
   done
-  python3 - "$scan" "$label" "$SIZE" "$THREADS" "${rss_kib[1]}" "${runs[@]}" >> "$csv" <<'EOF'
-import json, sys
-scan, label, size, threads, rss = sys.argv[1:6]
-runs = [json.load(open(p)) for p in sys.argv[6:]]
+  # The camera comes from the path; --compare does not go with a sequence.
+  while [ $# -gt 0 ]; do
+    case "$1" in
+      --eye|--target|--compare) shift 2 ;;
+      *) warm+=("$1"); shift ;;
+    esac
+  done
+  "$sspc" --quiet --threads "$THREADS" render "$input" -o "$WORK/warm.png" -f --size "$SIZE" \
+    --camera-path "$same_view" --times "$WORK/warm.csv" ${warm[@]+"${warm[@]}"} > /dev/null
+  python3 - "$scan" "$label" "$SIZE" "$THREADS" "${rss_kib[1]}" "$WORK/warm.csv" "${runs[@]}" >> "$csv" <<'EOF'
+import csv, json, sys
+scan, label, size, threads, rss, warm_csv = sys.argv[1:7]
+runs = [json.load(open(p)) for p in sys.argv[7:]]
 runs.sort(key=lambda r: r["render_seconds"])
 m = runs[len(runs) // 2]
+warm = float(list(csv.DictReader(open(warm_csv)))[1]["render_seconds"])
 print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
       f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},'
+      f'{warm:.3f},{m["rays"] / warm / 1e6:.3f},'
       f'{m["hits"]},{m["evaluations_per_hit"]:.1f},'
-      f'{m["scene_bytes_per_point"]:.2f},{int(rss) / 1024:.0f},'
+      f'{m["scene_bytes_per_point"]:.2f},{runs[0]["resident_growth_bytes"] / m["points"]:.2f},{int(rss) / 1024:.0f},'
       + (f'{m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"},{100 * m["hit_one_only_fraction"]:.3f}'
          if "psnr_hit_db" in m else ","))
 EOF
@@ -91,8 +106,8 @@ scan, label, size, threads, rss, path = sys.argv[1:7]
 m = json.load(open(path))
 psnr = m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"
 print(f'{scan},{label},{m["points"]},{size},{threads},{m["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
-      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},{m["hits"]},,'
-      f'{m["scene_bytes"] / m["points"]:.2f},{int(rss) / 1024:.0f},{psnr},{100 * m["hit_one_only_fraction"]:.3f}')
+      f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},,,{m["hits"]},,'
+      f'{m["scene_bytes"] / m["points"]:.2f},,{int(rss) / 1024:.0f},{psnr},{100 * m["hit_one_only_fraction"]:.3f}')
 EOF
   tail -1 "$csv"
 }
@@ -112,6 +127,8 @@ r = 0.5 * math.dist(lo, hi)
 d = 1.05 * r / math.sin(math.atan(math.tan(math.radians(20))))
 print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
   camera=(--eye "$eye" --target "$target")
+  same_view="$WORK/$scan.same_view.txt"
+  printf '%s %s\n%s %s\n' "$eye" "$target" "$eye" "$target" > "$same_view"
   # The uncompressed scene needs normals: estimated once (scans that have them keep theirs).
   plain="$WORK/$scan.normals.ply"
   [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
@@ -144,8 +161,12 @@ path, results, commit, cores, disc_radius = sys.argv[1:]
 rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
          "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera of the source (its "
-         "bounding box seen from +z), the same for every model of a scan, Mrays/s over all rays (median of 3 frames), scene bytes per original point "
-         "(points, normals and grids; a compressed model's the peak of its brick cache under the budget named), "
+         "bounding box seen from +z), the same for every model of a scan, Mrays/s over all rays (median of 3 frames, "
+         "each a process of its own: a compressed model builds its bricks as the rays reach them), and warm: the "
+         "second frame of the same view in one process (bricks built, as along a camera path); scene bytes per "
+         "original point as the scene counts them (points, normals and grids; a compressed model's bricks and "
+         "decoded blocks at their peaks under the budget named) and as measured (the process's resident growth "
+         "from before the scene to after the frame), "
          "peak memory of the whole process; a compressed model's image PSNR over the pixels hit and the pixels "
          "hit in one image only, against the render of its own decode (`decoded-lN`). Mrays per CPU-second: "
          "rays over the CPU time of every thread while rendering. `embree-discs`: the reference a fast "
@@ -154,12 +175,14 @@ lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores 
          "(`bench/embree_discs.cpp`; one `rtcIntersect1` a ray, or packets of 16 rays on 4×4 tiles), median of "
          "3 frames in one process, scene bytes Embree's peak allocation, and its image against the "
          "uncompressed render.", "",
-         "| scan | model | build s | Mrays/s | Mrays/CPU-s | rays hit | MLS evaluations per hit | scene bytes/point "
-         "| peak MiB | PSNR hit dB | hit in one only % |",
-         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+         "| scan | model | build s | Mrays/s | Mrays/CPU-s | Mrays/s warm | rays hit | MLS evaluations per hit "
+         "| scene bytes/point | resident growth bytes/point | peak MiB | PSNR hit dB | hit in one only % |",
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
 for r in rows:
-    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["mrays_cpu_s"]} | {r["hits"]} | '
-                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["peak_rss_mib"]} | '
+    lines.append(f'| {r["scan"]} | {r["model"]} | {r["build_s"]} | {r["mrays_s"]} | {r["mrays_cpu_s"]} | '
+                 f'{r["mrays_s_warm"]} | {r["hits"]} | '
+                 f'{r["evaluations_per_hit"]} | {r["scene_bytes_per_point"]} | {r["resident_growth_per_point"]} | '
+                 f'{r["peak_rss_mib"]} | '
                  f'{r["psnr_hit_db"]} | {r["hit_one_only_percent"]} |')
 print("\n".join(lines))
 replace_section(results, "render-bench", "Renderer: speed and memory", lines)

@@ -328,6 +328,14 @@ file raises RuntimeError ("corrupt: ...") naming the section, block and byte off
                   "into the model.")
       .def_property_readonly("patch_count", &CompressedModel::patch_count, "The number of patches.")
       .def_property_readonly("codeword_count", &CompressedModel::codeword_count, "The number of code words.")
+      .def_property(
+          "cache_budget", &CompressedModel::cache_budget,
+          [](const CompressedModel& model, std::uint64_t bytes) { model.set_cache_budget(bytes); },
+          "Bytes of decoded blocks kept for random queries (decode_patch, decode_box, patch, codeword), the least "
+          "recently used evicted; 64 MiB unless set. A smaller budget evicts at once; 0 keeps only the blocks last "
+          "used. A render Scene of the model sets it to an eighth of its memory budget.")
+      .def_property_readonly("cache_bytes", &CompressedModel::cache_bytes,
+                             "Bytes of decoded blocks the cache holds now.")
       .def("info", &model_info, R"doc(
 The model's header as `sspc info --json` prints it: a dict with format, version, file_bytes,
 normals, colours, source_points, patches, codewords, codeword_points, overlap_points,

@@ -70,6 +70,21 @@ def test_patches_concatenate_to_the_whole_decode(bunny_model):
     np.testing.assert_array_equal(np.concatenate(parts), whole.positions)
 
 
+def test_the_block_cache_keeps_within_its_budget(bumps):
+    # Small patches: many patch blocks, more than the cache's 16 shards keep at a budget of 0.
+    model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, patch_points=12))
+    assert model.cache_budget == 64 << 20
+    first = [model.decode_patch(k).positions for k in range(model.patch_count)]
+    full = model.cache_bytes
+    assert full > 0
+    model.cache_budget = 0  # evicts at once
+    assert model.cache_budget == 0 and model.cache_bytes < full
+    again = [model.decode_patch(k).positions for k in range(model.patch_count)]
+    assert model.cache_bytes < full
+    for a, b in zip(first, again):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_chunks_concatenate_to_the_whole_decode(bumps):
     # Small patches: several patch blocks (64 patches each), the unit a chunk is made of.
     model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, patch_points=12))
