@@ -82,6 +82,7 @@ StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
       static_cast<double>(info.source_points) * static_cast<double>(count) / static_cast<double>(patches);
   const auto stride = static_cast<std::size_t>(std::max(1.0, sampled_points / kSpacingSamples));
   std::vector<float> nearest, reach;
+  std::size_t offset = 0;
   for (std::size_t s = 0; s < count; ++s) {
     const std::size_t k = s * patches / count;
     SSPC_ASSIGN_OR_RETURN(const PointCloud own, model.decode_patch(k));
@@ -103,13 +104,15 @@ StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
     points.erase(std::unique(points.begin(), points.end()), points.end());
     if (points.size() < 2) continue;
     const KdTree3 tree(points);
-    for (std::size_t i = 0; i < own.size(); i += stride) {
+    std::size_t i = offset;
+    for (; i < own.size(); i += stride) {
       std::uint32_t index[kNormalNeighbours];
       float d2[kNormalNeighbours];
       const std::size_t found = tree.knn(own.positions[i], kNormalNeighbours, index, d2);
       if (found >= 2) nearest.push_back(std::sqrt(d2[1]));
       if (found == kNormalNeighbours) reach.push_back(std::sqrt(d2[found - 1]));
     }
+    offset = i - own.size();  // where the stride falls in the next sampled patch
   }
   DecodedSampling sampling;
   if (nearest.empty()) {
@@ -182,7 +185,9 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   model_->reset_cache_peak();
   budget -= model_budget;
   SSPC_ASSIGN_OR_RETURN(const DecodedSampling sampling, decoded_sampling(*model_));
-  const double spacing = sampling.spacing;
+  // On the ladder surface_spacing puts a point cloud's spacing on, so that this estimate and
+  // the decode's (another sample of the same points) give the same bandwidth.
+  const double spacing = render::ladder_spacing(sampling.spacing);
   if (!(spacing >= kMinSpacing && spacing <= 10.0 * static_cast<double>(info.patch_radius))) {
     return invalid_argument("the decoded model's point spacing does not fit its patch radius: it cannot be rendered");
   }

@@ -100,9 +100,14 @@ Status check_renderable(const PointCloud& cloud, const SceneOptions& o) {
 
 StatusOr<double> surface_spacing(const PointCloud& cloud) {
   SSPC_RETURN_IF_ERROR(check_coordinate_range(cloud.positions));
-  const double spacing = nominal_spacing(cloud);
+  const double spacing = ladder_spacing(nominal_spacing(cloud));
   SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
   return spacing;
+}
+
+double ladder_spacing(double spacing) {
+  if (!(spacing > 0) || !std::isfinite(spacing)) return spacing;
+  return std::exp2(std::round(std::log2(spacing) * kSpacingLadder) / kSpacingLadder);
 }
 
 StatusOr<UnitRay> UnitRay::make(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max) {

@@ -436,6 +436,22 @@ TEST(Renderer, DirectRenderOfASphereOfManyPatchesMatchesItsDecode) {
   expect_direct_matches_decoded(scene.cloud, 9, scene.options);
 }
 
+// The spacing a render takes its bandwidth from lies on the ladder of 2^(k/8), at most half a
+// rung (4.4%) from the estimate, and nearby estimates share a rung: what makes a compressed
+// model's render and its decode's, each estimating the spacing from its own sample, agree.
+TEST(Renderer, SpacingsLieOnTheLadder) {
+  for (const double s : {1e-6, 0.000228684, 0.7924, 0.8000, 1.0, 3.7, 1e5}) {
+    const double l = render::ladder_spacing(s);
+    const double rung = std::log2(l) * render::kSpacingLadder;
+    EXPECT_NEAR(rung, std::round(rung), 1e-9) << s;
+    EXPECT_LE(std::abs(std::log2(l / s)), 0.5 / render::kSpacingLadder + 1e-12) << s;
+    EXPECT_EQ(render::ladder_spacing(l), l) << s;
+  }
+  EXPECT_EQ(render::ladder_spacing(0.7924), render::ladder_spacing(0.8000));  // autzen level 0's two estimates
+  EXPECT_LE(render::ladder_spacing(1.0), render::ladder_spacing(1.05));
+  EXPECT_EQ(render::ladder_spacing(0.0), 0.0);
+}
+
 // Every tile of the image once, each a neighbour of the one before where the tiles fill a square
 // of a power of two a side (elsewhere the curve leaves the image and comes back).
 TEST(Renderer, HilbertTilesCoverTheImageOnceInNeighbourOrder) {
