@@ -224,7 +224,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     auto model = open_model(o.input);
     if (!model.ok()) return report_failure(model.status());
     resident_before = resident_bytes();
-    progress_stages(progress.get(), 2);  // the scene's bricks, the image's rows
+    progress_stages(progress.get(), 2);  // the scene's patches, the image's tiles
     points = model->info().source_points;
     if (o.budget_mib > 0) scene_options.memory_budget_bytes = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
     scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(model).value()),
