@@ -89,11 +89,12 @@ struct CompressedModel::Impl {
   codec::ContainerReader reader;
   codec::BlockIndex index;
   float coordinate_scale = 0;  // largest |coordinate| of any block box: scales the search slack
-  // The cache budget split: a patch block is small (autzen level 5: 64 patches, 7.4 KB), and a
-  // query needs its neighbours' blocks as well as its own.
-  mutable codec::BlockCache<DecodedPatches> patch_cache{CompressedModel::kDefaultCacheBudget / 8};
-  mutable codec::BlockCache<DecodedCodewords> codeword_cache{CompressedModel::kDefaultCacheBudget -
-                                                             CompressedModel::kDefaultCacheBudget / 8};
+  // The cache budget split: patch blocks get an eighth (a patch block is small, autzen level 5:
+  // 64 patches, 7.4 KB, and a query needs its neighbours' blocks as well as its own).
+  static constexpr std::uint64_t patch_share(std::uint64_t bytes) { return bytes / 8; }
+  mutable codec::BlockCache<DecodedPatches> patch_cache{patch_share(CompressedModel::kDefaultCacheBudget)};
+  mutable codec::BlockCache<DecodedCodewords> codeword_cache{
+      CompressedModel::kDefaultCacheBudget - patch_share(CompressedModel::kDefaultCacheBudget)};
 
   Status init(std::span<const std::byte> bytes, std::string name) {
     SSPC_ASSIGN_OR_RETURN(reader, codec::ContainerReader::open(bytes, std::move(name)));
@@ -514,8 +515,8 @@ Status CompressedModel::verify() const {
 }
 
 void CompressedModel::set_cache_budget(std::uint64_t bytes) const {
-  impl_->patch_cache.set_budget(bytes / 8);
-  impl_->codeword_cache.set_budget(bytes - bytes / 8);
+  impl_->patch_cache.set_budget(Impl::patch_share(bytes));
+  impl_->codeword_cache.set_budget(bytes - Impl::patch_share(bytes));
 }
 
 std::uint64_t CompressedModel::cache_budget() const {
