@@ -13,9 +13,15 @@
 # ray, and packets of 16 rays on 4×4 tiles), compared with the uncompressed render. Writes
 # docs/results/render_bench.csv and its table in docs/RESULTS.md.
 #
+# Level of detail (`--lod`): the level-LOD_LEVEL model rendered at each of LODS, and its decode
+# rendered with one ray a pixel, all against the decode rendered with 2 × 2 rays a pixel (a
+# supersampled reference, docs/METRICS.md "Images"): what each image shows of what the pixels
+# cover, and what the coarser levels save of the first frame's time and the scene's memory.
+# Writes docs/results/render_lod.csv and its table in docs/RESULTS.md.
+#
 # Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
 #   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="0 5 9"   BUDGETS="512 64" (MiB)
-#   DISC_RADIUS=1.5 (point spacings)
+#   DISC_RADIUS=1.5 (point spacings)   PARTS="speed lod"   LODS="0 0.5 1"   LOD_LEVEL=5
 #   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
 # Installs what it needs (a release build, Debian's time package, python3).
 set -euo pipefail
@@ -27,6 +33,9 @@ THREADS="${THREADS:-2}"
 LEVELS="${LEVELS:-0 5 9}"
 BUDGETS="${BUDGETS:-512 64}"
 DISC_RADIUS="${DISC_RADIUS:-1.5}"
+PARTS="${PARTS:-speed lod}"
+LODS="${LODS:-0 0.5 1}"
+LOD_LEVEL="${LOD_LEVEL:-5}"
 WORK="${WORK:-/tmp/sspc_bench_render}"
 if [ ! -d "$data" ]; then
   echo "bench_render: no data directory $data; nothing to measure" >&2
@@ -47,8 +56,12 @@ else
   echo "bench_render: no Embree 3 in the build; the embree-discs rows are skipped" >&2
 fi
 mkdir -p "$WORK" docs/results
-csv=docs/results/render_bench.csv
-echo "scan,model,points,size,threads,build_s,render_s,mrays_s,mrays_cpu_s,warm_render_s,mrays_s_warm,hits,evaluations_per_hit,scene_bytes_per_point,resident_growth_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent" > "$csv"
+columns="scan,model,points,size,threads,build_s,render_s,mrays_s,mrays_cpu_s,warm_render_s,mrays_s_warm,hits,evaluations_per_hit,scene_bytes_per_point,resident_growth_per_point,peak_rss_mib,psnr_hit_db,hit_one_only_percent"
+speed_csv=docs/results/render_bench.csv
+lod_csv=docs/results/render_lod.csv
+if [[ " $PARTS " == *" speed "* ]]; then echo "$columns" > "$speed_csv"; fi
+if [[ " $PARTS " == *" lod "* ]]; then echo "$columns" > "$lod_csv"; fi
+csv="$speed_csv"  # where measure() writes
 
 # One configuration: three renders, each a process of its own (a compressed scene builds its
 # bricks as the frame's rays reach them), the median render time; build time and memory of the
@@ -132,11 +145,6 @@ print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
   # The uncompressed scene needs normals: estimated once (scans that have them keep theirs).
   plain="$WORK/$scan.normals.ply"
   [ -f "$plain" ] || "$sspc" --quiet normals "$src" "$plain" --normals auto
-  measure "$scan" uncompressed "$plain" "${camera[@]}"
-  if [ -n "$discs" ]; then
-    measure_discs "$scan" embree-discs "$plain" 1 "${camera[@]}"
-    measure_discs "$scan" embree-discs-packet16 "$plain" 16 "${camera[@]}"
-  fi
   for level in $LEVELS; do
     model="$WORK/$scan.l$level.sspc"
     [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$level"
@@ -144,37 +152,51 @@ print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
     decoded="$WORK/$scan.l$level.decoded.ply"
     [ -f "$decoded" ] || { "$sspc" --quiet decode "$model" "$WORK/d.ply" -f &&
                            "$sspc" --quiet normals "$WORK/d.ply" "$decoded" --normals auto; }
-    measure "$scan" "decoded-l$level" "$decoded" "${camera[@]}"
-    for budget in $BUDGETS; do
-      measure "$scan" "compressed-l$level-${budget}MiB" "$model" "${camera[@]}" --memory-budget "$budget" \
-        --compare "$WORK/frame_decoded-l$level.png"
-    done
   done
+  if [[ " $PARTS " == *" speed "* ]]; then
+    csv="$speed_csv"
+    measure "$scan" uncompressed "$plain" "${camera[@]}"
+    if [ -n "$discs" ]; then
+      measure_discs "$scan" embree-discs "$plain" 1 "${camera[@]}"
+      measure_discs "$scan" embree-discs-packet16 "$plain" 16 "${camera[@]}"
+    fi
+    for level in $LEVELS; do
+      measure "$scan" "decoded-l$level" "$WORK/$scan.l$level.decoded.ply" "${camera[@]}"
+      for budget in $BUDGETS; do
+        measure "$scan" "compressed-l$level-${budget}MiB" "$WORK/$scan.l$level.sspc" "${camera[@]}" \
+          --memory-budget "$budget" --compare "$WORK/frame_decoded-l$level.png"
+      done
+    done
+  fi
+  if [[ " $PARTS " == *" lod "* ]]; then
+    csv="$lod_csv"
+    model="$WORK/$scan.l$LOD_LEVEL.sspc"
+    decoded="$WORK/$scan.l$LOD_LEVEL.decoded.ply"
+    [ -f "$model" ] || "$sspc" --quiet encode "$src" "$model" --level "$LOD_LEVEL"
+    [ -f "$decoded" ] || { "$sspc" --quiet decode "$model" "$WORK/d.ply" -f &&
+                           "$sspc" --quiet normals "$WORK/d.ply" "$decoded" --normals auto; }
+    width="${SIZE%x*}" height="${SIZE#*x}"
+    reference="$WORK/$scan.l$LOD_LEVEL.supersampled.png"
+    "$sspc" --quiet --threads "$THREADS" render "$decoded" -o "$reference" -f \
+      --size "$((2 * width))x$((2 * height))" "${camera[@]}"
+    measure "$scan" "decoded-l$LOD_LEVEL" "$decoded" "${camera[@]}" --compare "$reference"
+    for lod in $LODS; do
+      measure "$scan" "compressed-l$LOD_LEVEL-lod$lod" "$model" "${camera[@]}" --lod "$lod" --compare "$reference"
+    done
+  fi
 done
 
 echo
-python3 - "$csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" "$DISC_RADIUS" <<'EOF'
+# The tables: RESULTS.md sections from the CSVs.
+table() {  # csv section-id title intro
+  python3 - "$1" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" "$2" "$3" "$4" <<'EOF'
 import csv, datetime, sys
 sys.path.insert(0, "scripts")
 from results_section import replace_section
-path, results, commit, cores, disc_radius = sys.argv[1:]
+path, results, commit, cores, section, title, intro = sys.argv[1:]
 rows = list(csv.DictReader(open(path)))
 lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
-         "raw figures in `docs/results/render_bench.csv`. Primary rays from the automatic camera of the source (its "
-         "bounding box seen from +z), the same for every model of a scan, Mrays/s over all rays (median of 3 frames, "
-         "each a process of its own: a compressed model builds its bricks as the rays reach them), and warm: the "
-         "second frame of the same view in one process (bricks built, as along a camera path); scene bytes per "
-         "original point as the scene counts them (points, normals and grids; a compressed model's bricks and "
-         "decoded blocks at their peaks under the budget named) and as measured (the process's resident growth "
-         "from before the scene to after the frame), "
-         "peak memory of the whole process; a compressed model's image PSNR over the pixels hit and the pixels "
-         "hit in one image only, against the render of its own decode (`decoded-lN`). Mrays per CPU-second: "
-         "rays over the CPU time of every thread while rendering. `embree-discs`: the reference a fast "
-         "raw-point renderer gives, Embree 3's oriented discs on the source points and the uncompressed "
-         f"scene's normals, of radius {disc_radius} point spacings, through the same camera, pixels and shading "
-         "(`bench/embree_discs.cpp`; one `rtcIntersect1` a ray, or packets of 16 rays on 4×4 tiles), median of "
-         "3 frames in one process, scene bytes Embree's peak allocation, and its image against the "
-         "uncompressed render.", "",
+         f"raw figures in `{path}`. " + intro, "",
          "| scan | model | build s | Mrays/s | Mrays/CPU-s | Mrays/s warm | rays hit | MLS evaluations per hit "
          "| scene bytes/point | resident growth bytes/point | peak MiB | PSNR hit dB | hit in one only % |",
          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -185,5 +207,29 @@ for r in rows:
                  f'{r["peak_rss_mib"]} | '
                  f'{r["psnr_hit_db"]} | {r["hit_one_only_percent"]} |')
 print("\n".join(lines))
-replace_section(results, "render-bench", "Renderer: speed and memory", lines)
+replace_section(results, section, title, lines)
 EOF
+}
+if [[ " $PARTS " == *" speed "* ]]; then
+  table "$speed_csv" render-bench "Renderer: speed and memory" \
+    "Primary rays from the automatic camera of the source (its bounding box seen from +z), the same for every \
+model of a scan, Mrays/s over all rays (median of 3 frames, each a process of its own: a compressed model builds \
+its bricks as the rays reach them), and warm: the second frame of the same view in one process (bricks built, as \
+along a camera path); scene bytes per original point as the scene counts them (points, normals and grids; a \
+compressed model's bricks and decoded blocks at their peaks under the budget named) and as measured (the process's \
+resident growth from before the scene to after the frame), peak memory of the whole process; a compressed model's \
+image PSNR over the pixels hit and the pixels hit in one image only, against the render of its own decode \
+(\`decoded-lN\`). Mrays per CPU-second: rays over the CPU time of every thread while rendering. \`embree-discs\`: \
+the reference a fast raw-point renderer gives, Embree 3's oriented discs on the source points and the uncompressed \
+scene's normals, of radius $DISC_RADIUS point spacings, through the same camera, pixels and shading \
+(\`bench/embree_discs.cpp\`; one \`rtcIntersect1\` a ray, or packets of 16 rays on 4×4 tiles), median of 3 frames \
+in one process, scene bytes Embree's peak allocation, and its image against the uncompressed render."
+fi
+if [[ " $PARTS " == *" lod "* ]]; then
+  table "$lod_csv" render-lod "Renderer: level of detail" \
+    "Each scan's level-$LOD_LEVEL model at $SIZE from the automatic camera, rendered directly with \`--lod\` at \
+$LODS (\`lod0\`: every point; the default 512 MiB budget), and its decode rendered with one ray a pixel \
+(\`decoded-l$LOD_LEVEL\`). Columns as in the table above, but the PSNR and the pixels hit in one only are against the \
+decode rendered with 2 × 2 rays a pixel and box-filtered (a supersampled reference, docs/METRICS.md, \"Images\"): \
+how close each image comes to what its pixels cover."
+fi

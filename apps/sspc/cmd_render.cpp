@@ -35,6 +35,7 @@ struct RenderCliOptions {
   float bandwidth = 1.5f;
   Shade shade = Shade::kLambert;
   double budget_mib = 0;
+  float lod = 0;
   std::string page_dir;
   std::string camera_path;
   int orbit = 0;
@@ -192,9 +193,12 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   if (!o.compare.empty()) {
     auto read = read_png(o.compare);
     if (!read.ok()) return report_failure(read.status());
-    if (read->width != options.width || read->height != options.height) {
+    // The render's size, or a whole multiple of it each way: a supersampled reference.
+    const int k = read->width / options.width;
+    if (k < 1 || read->width != k * options.width || read->height != k * options.height) {
       return report_failure(invalid_argument(o.compare + ": " + std::to_string(read->width) + "x" +
-                                             std::to_string(read->height) + " pixels, but the render is " + o.size));
+                                             std::to_string(read->height) + " pixels, but the render is " + o.size +
+                                             " (a reference must be its size, or a whole multiple of it each way)"));
     }
     reference = std::move(read).value();
   }
@@ -212,6 +216,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   }
   auto progress = make_progress(global);
   options.shade = o.shade;
+  options.level_of_detail = o.lod;
   SceneOptions scene_options;
   scene_options.bandwidth = o.bandwidth;
   scene_options.progress = progress.get();
@@ -446,6 +451,12 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
                   "size; a compressed model's decoded bricks are cached within it (default 512)")
       ->check(number_in(1, 1e7))
       ->type_name("1..1e7");
+  app->add_option("--lod", o->lod,
+                  "Level of detail for a compressed model: where its points lie denser than the pixels, intersect a "
+                  "coarser form whose samples span at most this many pixels (0: off, every point)")
+      ->check(number_in(0, 64))
+      ->type_name("0..64")
+      ->capture_default_str();
   app->add_option("--page-dir", o->page_dir, "Folder for the page file of --memory-budget (default: the temp folder)")
       ->check(CLI::Validator(CLI::ExistingDirectory).description(""))
       ->type_name("DIR");
@@ -460,7 +471,8 @@ Command add_render_command(CLI::App& root, const GlobalOptions& global) {
       ->excludes("--camera-path");
   app->add_option("--times", o->times, "The sequence's per-frame CSV (default: OUT with .csv)")->type_name("FILE");
   app->add_option("--compare", o->compare,
-                  "A PNG of the same size to compare the render with: image PSNR over the pixels both hit, and the "
+                  "A PNG of the same size (or a whole multiple of it each way: a supersampled reference, box-filtered) "
+                  "to compare the render with: image PSNR over the pixels both hit, and the "
                   "pixels hit in one only (docs/METRICS.md)")
       ->check(CLI::Validator(CLI::ExistingFile).description(""))
       ->type_name("FILE")

@@ -50,6 +50,11 @@ struct FrameOptions {
   int height = 1024;
   Camera camera;
   Shade shade = Shade::kLambert;
+  // Level of detail: 0 intersects every point's surface; p > 0 lets a compressed scene
+  // intersect the surface, where its points lie more densely than the pixels, from a coarser
+  // form whose samples are 2, 4 or 8 spacings apart, wherever those project to at most p pixels
+  // (docs/ARCHITECTURE.md, "Level of detail"). Other scenes ignore it.
+  float level_of_detail = 0;
   Progress* progress = nullptr;  // the frame's rows
 };
 
@@ -167,7 +172,9 @@ struct ImageComparison {
     return either == 0 ? 0.0 : static_cast<double>(hit_first_only + hit_second_only) / static_cast<double>(either);
   }
 };
-// Images of different sizes are an error.
+// A second image k times the first's size each way (k ≥ 2 a whole number) is a supersampled
+// reference: each block of k × k pixels is averaged, misses as black, before the comparison (a
+// pixel partly covered is hit, and darker). Other sizes are an error.
 StatusOr<ImageComparison> compare_images(const Image& first, const Image& second);
 
 }  // namespace sspc

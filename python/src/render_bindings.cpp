@@ -61,11 +61,13 @@ class Scene {
   }
 
   py::object render(int width, int height, const py::object& eye, const py::object& target, const py::object& up,
-                    float fov, const std::string& shade, bool depth, int threads, const py::object& progress) const {
+                    float fov, const std::string& shade, float lod, bool depth, int threads,
+                    const py::object& progress) const {
     FrameOptions options;
     options.width = width;
     options.height = height;
     options.shade = shade_from(shade);
+    options.level_of_detail = lod;
     options.camera = frame_bounds(scene_->bounds(), fov);
     if (!eye.is_none()) options.camera.eye = vec3(eye, "eye");
     if (!target.is_none()) options.camera.target = vec3(target, "target");
@@ -121,7 +123,9 @@ width, height: the image size in pixels. eye, target, up: the camera, (x, y, z) 
 the camera frames the scene's bounds from the +z side (eye and target), with up = +y. fov: the
 vertical field of view in degrees. shade: 'lambert', 'normal', 'depth' or 'codeword' (each pixel
 coloured by the code word of the patch that contributed most; a point cloud is one colour).
-depth=True returns (rgb, depth) with depth an (H, W) float32 array of the ray parameter of each
+lod: level of detail for a CompressedModel, as `sspc render --lod` (0 off; 0.5 keeps the image
+closest to a supersampled one): where its points lie denser than the pixels, the surface is
+intersected from a coarser form whose samples span at most lod pixels. depth=True returns (rgb, depth) with depth an (H, W) float32 array of the ray parameter of each
 hit, inf where the ray missed. The arrays own the renderer's buffers (no copy). threads > 0 caps
 the worker threads; progress as in encode(). The GIL is released while rendering.)doc";
 
@@ -149,9 +153,8 @@ normals are estimated when it has none. bandwidth: the MLS bandwidth h in point 
            py::arg("progress") = py::none())
       .def("render", &Scene::render, py::kw_only(), py::arg("width") = 1024, py::arg("height") = 1024,
            py::arg("eye") = py::none(), py::arg("target") = py::none(), py::arg("up") = py::none(),
-           py::arg("fov") = 40.0f, py::arg("shade") = "lambert", py::arg("depth") = false, py::arg("threads") = 0,
-           py::arg("progress") = py::none(),
-           scene_render_doc.c_str())
+           py::arg("fov") = 40.0f, py::arg("shade") = "lambert", py::arg("lod") = 0.0f, py::arg("depth") = false,
+           py::arg("threads") = 0, py::arg("progress") = py::none(), scene_render_doc.c_str())
       .def("bounds", &Scene::bounds, "((xmin, ymin, zmin), (xmax, ymax, zmax)) of the scene.")
       .def_property_readonly("build_seconds", &Scene::build_seconds, "Seconds spent building the scene.")
       .def_property_readonly("memory_bytes", &Scene::memory_bytes,
@@ -161,14 +164,14 @@ normals are estimated when it has none. bandwidth: the MLS bandwidth h in point 
   m.def(
       "render",
       [](const py::object& source, int width, int height, const py::object& eye, const py::object& target,
-         const py::object& up, float fov, const std::string& shade, float bandwidth, double memory_budget_mib,
-         bool depth, int threads, const py::object& progress) {
+         const py::object& up, float fov, const std::string& shade, float lod, float bandwidth,
+         double memory_budget_mib, bool depth, int threads, const py::object& progress) {
         const Scene scene(source, bandwidth, memory_budget_mib, threads, progress);
-        return scene.render(width, height, eye, target, up, fov, shade, depth, threads, progress);
+        return scene.render(width, height, eye, target, up, fov, shade, lod, depth, threads, progress);
       },
       py::arg("source"), py::kw_only(), py::arg("width") = 1024, py::arg("height") = 1024,
       py::arg("eye") = py::none(), py::arg("target") = py::none(), py::arg("up") = py::none(), py::arg("fov") = 40.0f,
-      py::arg("shade") = "lambert", py::arg("bandwidth") = 1.5f, py::arg("memory_budget_mib") = 512.0,
+      py::arg("shade") = "lambert", py::arg("lod") = 0.0f, py::arg("bandwidth") = 1.5f, py::arg("memory_budget_mib") = 512.0,
       py::arg("depth") = false, py::arg("threads") = 0, py::arg("progress") = py::none(),
       render_doc.c_str());
 

@@ -111,3 +111,21 @@ def test_direct_render_matches_the_render_of_the_decode(bunny_model):
     both = hit_direct & hit_decoded
     mse = np.mean((direct[both].astype(float) - decoded[both].astype(float)) ** 2)
     assert mse == 0 or 10 * np.log10(255 ** 2 / mse) >= 35
+
+
+def test_level_of_detail_changes_little_and_is_checked(bunny_model):
+    # lod > 0 intersects a coarser form where the points lie denser than the pixels: at 96² the
+    # bunny's spacing projects to about a fifth of a pixel, so the image changes, but little (the
+    # C++ tests hold a smooth sphere to 35 dB).
+    full = sspc.render(bunny_model, width=96, height=96)
+    coarse = sspc.render(bunny_model, width=96, height=96, lod=1.0)
+    assert not np.array_equal(full, coarse)
+    hit_full, hit_coarse = full.any(axis=2), coarse.any(axis=2)
+    assert hit_full.sum() > 1500
+    assert (hit_full != hit_coarse).sum() <= 0.03 * (hit_full | hit_coarse).sum()
+    both = hit_full & hit_coarse
+    mse = np.mean((full[both].astype(float) - coarse[both].astype(float)) ** 2)
+    assert 10 * np.log10(255 ** 2 / mse) >= 22
+    assert np.array_equal(sspc.render(bunny_model, width=96, height=96, lod=0.0), full)
+    with pytest.raises(ValueError):
+        sspc.render(bunny_model, width=8, height=8, lod=-1.0)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "core/parallel.hpp"
 #include "render/camera.hpp"
@@ -22,42 +23,97 @@ Status BrickScene::layout(const Box3f& bounds, float edge, float bandwidth, std:
   edge_ = edge;
   bandwidth_ = bandwidth;
   budget_ = budget_bytes;
-  origin_ = bounds.min();
+  Grid& grid = grids_[0];
+  grid.origin = bounds.min();
+  grid.edge = edge;
+  grid.bandwidth = bandwidth;
   const Vec3f extent = bounds.max() - bounds.min();
   double total = 1;
   for (int a = 0; a < 3; ++a) {
     const double cells = std::ceil(static_cast<double>(extent[a]) / static_cast<double>(edge) + 1e-6);
     if (!(cells <= 1e7)) return invalid_argument("the scene spans too many bricks");
-    dims_[a] = std::max(1, static_cast<int>(cells));
-    total *= dims_[a];
+    grid.dims[a] = std::max(1, static_cast<int>(cells));
+    total *= grid.dims[a];
   }
   if (total > 1e7) return invalid_argument("the scene spans too many bricks");
-  occupied_.assign(static_cast<std::size_t>(total), false);
+  grid.occupied.assign(static_cast<std::size_t>(total), false);
   return Status();
 }
 
-Box3f BrickScene::surface_bounds() const {
-  const Box3f grid(origin_, origin_ + edge_ * Vec3f(static_cast<float>(dims_[0]), static_cast<float>(dims_[1]),
-                                                    static_cast<float>(dims_[2])));
-  return grid.merged(bounds_);
+void BrickScene::add_levels(int count, float cell, float bandwidth) {
+  grids_.resize(1);
+  grids_.reserve(static_cast<std::size_t>(std::max(count, 1)));  // `fine` stays where it is
+  const Grid& fine = grids_[0];
+  for (int level = 1; level < count; ++level) {
+    const int scale = 1 << level;
+    Grid grid;
+    grid.origin = fine.origin;
+    grid.edge = fine.edge * static_cast<float>(scale);
+    grid.cell = cell * static_cast<float>(scale / 2);
+    grid.bandwidth = bandwidth * static_cast<float>(scale / 2);
+    for (int a = 0; a < 3; ++a) grid.dims[a] = (fine.dims[a] + scale - 1) / scale;
+    const Grid& above = grids_.back();
+    grid.first_key = above.first_key + above.occupied.size();
+    grid.occupied.assign(static_cast<std::size_t>(grid.dims[0]) * static_cast<std::size_t>(grid.dims[1]) *
+                             static_cast<std::size_t>(grid.dims[2]),
+                         false);
+    // Each occupied level-0 brick marks the coarse bricks whose boxes lie within the coarse
+    // support radius of it, in level-0 bricks.
+    const float support = MlsSurface(std::span<const Vec3f>(), std::span<const Vec3f>(), grid.bandwidth).support_radius();
+    const int reach = static_cast<int>(std::min(std::ceil(support / fine.edge), 1e6f));
+    for (int z = 0; z < fine.dims[2]; ++z) {
+      for (int y = 0; y < fine.dims[1]; ++y) {
+        for (int x = 0; x < fine.dims[0]; ++x) {
+          if (!fine.occupied[fine.index(x, y, z)]) continue;
+          const int lo[3] = {std::max(0, x - reach) / scale, std::max(0, y - reach) / scale, std::max(0, z - reach) / scale};
+          const int hi[3] = {std::min(grid.dims[0] - 1, (x + reach) / scale), std::min(grid.dims[1] - 1, (y + reach) / scale),
+                             std::min(grid.dims[2] - 1, (z + reach) / scale)};
+          for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+            for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+              for (int cx = lo[0]; cx <= hi[0]; ++cx) grid.occupied[grid.index(cx, cy, cz)] = true;
+            }
+          }
+        }
+      }
+    }
+    grids_.push_back(std::move(grid));
+  }
 }
 
-int BrickScene::brick_coordinate(float v, int axis) const {
-  const float c = std::floor((v - origin_[axis]) / edge_);
+Box3f BrickScene::surface_bounds() const {
+  const Grid& grid = grids_[0];
+  const Box3f box(grid.origin, grid.origin + grid.edge * Vec3f(static_cast<float>(grid.dims[0]),
+                                                               static_cast<float>(grid.dims[1]),
+                                                               static_cast<float>(grid.dims[2])));
+  return box.merged(bounds_);
+}
+
+int BrickScene::Grid::coordinate(float v, int axis) const {
+  const float c = std::floor((v - origin[axis]) / edge);
   if (!(c > 0)) return 0;
-  if (c >= static_cast<float>(dims_[axis] - 1)) return dims_[axis] - 1;
+  if (c >= static_cast<float>(dims[axis] - 1)) return dims[axis] - 1;
   return static_cast<int>(c);
 }
 
-Box3f BrickScene::brick_box(std::size_t b) const {
-  const auto x = static_cast<int>(b % static_cast<std::size_t>(dims_[0]));
-  const auto y = static_cast<int>((b / static_cast<std::size_t>(dims_[0])) % static_cast<std::size_t>(dims_[1]));
-  const auto z = static_cast<int>(b / (static_cast<std::size_t>(dims_[0]) * static_cast<std::size_t>(dims_[1])));
-  const Vec3f lo = origin_ + edge_ * Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  return Box3f(lo, lo + Vec3f::Constant(edge_));
+Box3f BrickScene::Grid::box(std::size_t b) const {
+  const auto x = static_cast<int>(b % static_cast<std::size_t>(dims[0]));
+  const auto y = static_cast<int>((b / static_cast<std::size_t>(dims[0])) % static_cast<std::size_t>(dims[1]));
+  const auto z = static_cast<int>(b / (static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1])));
+  const Vec3f lo = origin + edge * Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+  return Box3f(lo, lo + Vec3f::Constant(edge));
 }
 
-StatusOr<BrickScene::SurfacePtr> BrickScene::surface(std::size_t b) const {
+bool BrickScene::Grid::of(const Vec3f& x, int c[3]) const {
+  for (int a = 0; a < 3; ++a) {
+    const float v = std::floor((x[a] - origin[a]) / edge);
+    if (!(v >= 0) || !(v < static_cast<float>(dims[a]))) return false;
+    c[a] = static_cast<int>(v);
+  }
+  return true;
+}
+
+StatusOr<BrickScene::SurfacePtr> BrickScene::surface(int level, std::size_t brick) const {
+  const std::size_t b = grids_[static_cast<std::size_t>(level)].first_key + brick;
   std::promise<StatusOr<SurfacePtr>> promise;
   std::shared_future<StatusOr<SurfacePtr>> pending;
   {
@@ -76,7 +132,7 @@ StatusOr<BrickScene::SurfacePtr> BrickScene::surface(std::size_t b) const {
   if (pending.valid()) return pending.get();
 
   StatusOr<SurfacePtr> built = internal_error("not built");
-  isolated([&] { built = load(b); });
+  isolated([&] { built = load(level, brick); });
   promise.set_value(built);
   ++loads_;
   std::lock_guard lock(mutex_);
@@ -105,16 +161,17 @@ StatusOr<BrickScene::SurfacePtr> BrickScene::surface(std::size_t b) const {
   return built;
 }
 
-// The scene's surface as march_ray (render/mls_march.hpp) asks for it, for one ray: a point is
-// evaluated in the surface of the brick that holds it, which holds every point within the
-// support radius of the brick, so the march samples what the whole cloud's surface would give
-// there, bracket by bracket across the bricks' faces. The bricks it last used are kept, as a
-// bracket that straddles a face goes back and forth between two.
+// One level's surface as march_ray (render/mls_march.hpp) asks for it, for one thread's rays: a
+// point is evaluated in the surface of the brick that holds it, which holds every point within
+// the support radius of the brick, so the march samples what the whole cloud's surface would
+// give there, bracket by bracket across the bricks' faces. The bricks it last used are kept, as
+// a bracket that straddles a face goes back and forth between two.
 class BrickScene::Field {
  public:
-  explicit Field(const BrickScene& scene) : scene_(scene) {}
+  Field(const BrickScene& scene, int level)
+      : scene_(scene), grid_(scene.grids_[static_cast<std::size_t>(level)]), level_(level) {}
 
-  float bandwidth() const { return scene_.bandwidth_; }
+  float bandwidth() const { return grid_.bandwidth; }
   const Status& status() const { return status_; }
 
   bool evaluate(const Vec3f& x, const Vec3f& facing, Vec3f& a, Vec3f& n, float& support) const {
@@ -126,9 +183,9 @@ class BrickScene::Field {
     const Vec3f x = o + t * d;
     int c[3];
     if (!locate(x, c)) return std::numeric_limits<float>::infinity();  // beyond every brick
-    const float exit = std::max(exit_of(c, o, d), t) + 1e-3f * scene_.edge_;
-    const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
-    if (!scene_.occupied_[b]) return exit;
+    const float exit = std::max(exit_of(c, o, d), t) + 1e-3f * grid_.edge;
+    const std::size_t b = grid_.index(c[0], c[1], c[2]);
+    if (!grid_.occupied[b]) return exit;
     const MlsSurface* s = surface(b);
     if (s == nullptr) return std::numeric_limits<float>::infinity();  // failed: the march ends
     // A cell of the brick's surface near none of its points is near no point of the cloud only
@@ -152,23 +209,23 @@ class BrickScene::Field {
   }
 
  private:
-  // scene_.brick_of(x, c), answered without its three divisions while x stays well inside the
-  // brick last found (7.5% of a compressed render of dragon_scans at level 5 went to brick_of;
+  // grid_.of(x, c), answered without its three divisions while x stays well inside the brick
+  // last found (7.5% of a compressed render of dragon_scans at level 5 went to finding bricks;
   // a march samples a brick many times in a row). "Well inside" by a margin far above the
-  // rounding of brick_of's arithmetic, so the answer is always brick_of's.
+  // rounding of Grid::of's arithmetic, so the answer is always its.
   bool locate(const Vec3f& x, int c[3]) const {
     if (x.x() > inner_lo_.x() && x.x() < inner_hi_.x() && x.y() > inner_lo_.y() && x.y() < inner_hi_.y() &&
         x.z() > inner_lo_.z() && x.z() < inner_hi_.z()) {
       std::copy(last_, last_ + 3, c);
       return true;
     }
-    if (!scene_.brick_of(x, c)) return false;
+    if (!grid_.of(x, c)) return false;
     std::copy(c, c + 3, last_);
-    const float edge = scene_.edge_;
+    const float edge = grid_.edge;
     for (int a = 0; a < 3; ++a) {
-      const float lo = scene_.origin_[a] + static_cast<float>(c[a]) * edge;
+      const float lo = grid_.origin[a] + static_cast<float>(c[a]) * edge;
       const float margin =
-          1e-3f * edge + 4e-7f * (std::abs(scene_.origin_[a]) + std::abs(lo) + (static_cast<float>(c[a]) + 1) * edge);
+          1e-3f * edge + 4e-7f * (std::abs(grid_.origin[a]) + std::abs(lo) + (static_cast<float>(c[a]) + 1) * edge);
       inner_lo_[a] = lo + margin;
       inner_hi_[a] = lo + edge - margin;  // empty (lo > hi) when the margin is the brick's size
     }
@@ -178,8 +235,8 @@ class BrickScene::Field {
   float exit_of(const int c[3], const Vec3f& o, const Vec3f& d) const {
     Vec3f lo, hi;
     for (int a = 0; a < 3; ++a) {
-      lo[a] = scene_.origin_[a] + static_cast<float>(c[a]) * scene_.edge_;
-      hi[a] = scene_.origin_[a] + static_cast<float>(c[a] + 1) * scene_.edge_;
+      lo[a] = grid_.origin[a] + static_cast<float>(c[a]) * grid_.edge;
+      hi[a] = grid_.origin[a] + static_cast<float>(c[a] + 1) * grid_.edge;
     }
     return exit_from_box(lo, hi, o, d, std::numeric_limits<float>::infinity());
   }
@@ -187,15 +244,15 @@ class BrickScene::Field {
   const MlsSurface* at(const Vec3f& x) const {
     int c[3];
     if (!locate(x, c)) return nullptr;
-    const std::size_t b = scene_.brick_index(c[0], c[1], c[2]);
-    return scene_.occupied_[b] ? surface(b) : nullptr;
+    const std::size_t b = grid_.index(c[0], c[1], c[2]);
+    return grid_.occupied[b] ? surface(b) : nullptr;
   }
   const MlsSurface* surface(std::size_t b) const {
     for (const auto& [brick, held] : recent_) {
       if (brick == b && held != nullptr) return held.get();
     }
     if (!status_.ok()) return nullptr;
-    StatusOr<SurfacePtr> s = scene_.surface(b);
+    StatusOr<SurfacePtr> s = scene_.surface(level_, b);
     if (!s.ok()) {
       status_ = s.status();
       return nullptr;
@@ -206,6 +263,8 @@ class BrickScene::Field {
   }
 
   const BrickScene& scene_;
+  const Grid& grid_;
+  int level_;
   // The brick locate() last found, and the part of its box where its answer needs no division
   // (empty before the first).
   mutable int last_[3] = {0, 0, 0};
@@ -215,37 +274,58 @@ class BrickScene::Field {
   mutable Status status_;
 };
 
-bool BrickScene::brick_of(const Vec3f& x, int c[3]) const {
-  for (int a = 0; a < 3; ++a) {
-    const float v = std::floor((x[a] - origin_[a]) / edge_);
-    if (!(v >= 0) || !(v < static_cast<float>(dims_[a]))) return false;
-    c[a] = static_cast<int>(v);
-  }
-  return true;
-}
-
-StatusOr<std::optional<RayHit>> BrickScene::trace(const Field& field, const Vec3f& eye, const Vec3f& d, float t_min,
-                                                  float t_max, bool want_id, std::uint64_t& evaluations) const {
+StatusOr<std::optional<RayHit>> BrickScene::trace(Fields& fields, std::span<const float> starts, const Vec3f& eye,
+                                                  const Vec3f& d, float t_min, float t_max, bool want_id,
+                                                  std::uint64_t& evaluations) const {
   const std::optional<RayHit> miss;
   // The ray's interval in the grid of bricks.
   float t0 = std::max(t_min, 0.0f), t1 = t_max;
-  const Vec3f far_corner = origin_ + edge_ * Vec3f(static_cast<float>(dims_[0]), static_cast<float>(dims_[1]),
-                                                   static_cast<float>(dims_[2]));
-  if (!clip_to_box(origin_, far_corner, eye, d, t0, t1)) return miss;
-  const auto hit = march_ray(field, eye, d, t0, t1);
-  SSPC_RETURN_IF_ERROR(field.status());
-  if (!hit) return miss;
-  evaluations += static_cast<std::uint64_t>(hit->evaluations);
-  return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? field.nearest_id(eye + hit->t * d) : 0});
+  const Grid& fine = grids_[0];
+  const Vec3f far_corner = fine.origin + fine.edge * Vec3f(static_cast<float>(fine.dims[0]),
+                                                           static_cast<float>(fine.dims[1]),
+                                                           static_cast<float>(fine.dims[2]));
+  if (!clip_to_box(fine.origin, far_corner, eye, d, t0, t1)) return miss;
+  // Level by level: level l from starts[l], less its bandwidth (a crossing that level l − 1's
+  // last samples had not bracketed is found from just before), to the next level's start.
+  for (std::size_t level = 0; level < starts.size(); ++level) {
+    const float end = level + 1 < starts.size() ? std::min(t1, starts[level + 1]) : t1;
+    const float begin = level == 0 ? t0 : std::max(t0, starts[level] - grids_[level].bandwidth);
+    if (begin > end) continue;
+    if (fields[level] == nullptr) fields[level] = std::make_unique<Field>(*this, static_cast<int>(level));
+    const Field& field = *fields[level];
+    const auto hit = march_ray(field, eye, d, begin, end);
+    SSPC_RETURN_IF_ERROR(field.status());
+    if (hit) {
+      evaluations += static_cast<std::uint64_t>(hit->evaluations);
+      return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? field.nearest_id(eye + hit->t * d) : 0});
+    }
+    if (end >= t1) break;
+  }
+  return miss;
+}
+
+std::vector<float> BrickScene::level_starts(const FrameOptions& o) const {
+  std::vector<float> starts{0.0f};
+  if (!(o.level_of_detail > 0)) return starts;
+  // A pixel at distance t spans about t·θ (θ the angle of the image's central pixel); level l's
+  // points lie about a cell apart, so it is used from where a cell spans level_of_detail pixels.
+  const double theta =
+      2 * std::tan(0.5 * static_cast<double>(o.camera.fov_degrees) * std::numbers::pi / 180) / o.height;
+  for (std::size_t level = 1; level < grids_.size(); ++level) {
+    const double cell = static_cast<double>(grids_[level].cell);
+    starts.push_back(static_cast<float>(cell / (static_cast<double>(o.level_of_detail) * theta)));
+  }
+  return starts;
 }
 
 StatusOr<std::optional<RayHit>> BrickScene::intersect(const Vec3f& origin, const Vec3f& direction, float t_min,
                                                       float t_max) const {
   SSPC_ASSIGN_OR_RETURN(const UnitRay ray, UnitRay::make(origin, direction, t_min, t_max));
   std::uint64_t evaluations = 0;
-  const Field field(*this);
-  SSPC_ASSIGN_OR_RETURN(std::optional<RayHit> hit,
-                        trace(field, ray.origin, ray.direction, ray.t_min, ray.t_max, true, evaluations));
+  Fields fields(1);
+  const float level0 = 0;
+  SSPC_ASSIGN_OR_RETURN(std::optional<RayHit> hit, trace(fields, std::span<const float>(&level0, 1), ray.origin,
+                                                         ray.direction, ray.t_min, ray.t_max, true, evaluations));
   if (hit) hit->t /= ray.scale;
   return hit;
 }
@@ -257,6 +337,7 @@ StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) co
   std::mutex failure_mutex;
   Status failure;
   const bool want_id = o.shade == Shade::kCodeword;
+  const std::vector<float> starts = level_starts(o);
   // One Field for each stretch of tiles a thread traces, not one a ray: the bricks it holds stay
   // at hand from ray to ray without the cache's lock. Made a ray, every ray took the lock and
   // copied a brick's shared pointer, and on 2 threads the compressed dragon_scans (level 5,
@@ -264,9 +345,9 @@ StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) co
   Image image = trace_image(
       o, camera,
       [&] {
-        return [&, field = std::make_unique<Field>(*this)](int px, int py, Frame& frame, std::uint64_t& evaluations) {
-          auto hit = trace(*field, camera.eye(), camera.direction(px, py), 0, std::numeric_limits<float>::infinity(),
-                           want_id, evaluations);
+        return [&, fields = Fields(starts.size())](int px, int py, Frame& frame, std::uint64_t& evaluations) mutable {
+          auto hit = trace(fields, starts, camera.eye(), camera.direction(px, py), 0,
+                           std::numeric_limits<float>::infinity(), want_id, evaluations);
           if (!hit.ok()) {
             std::lock_guard lock(failure_mutex);
             if (failure.ok()) failure = hit.status();

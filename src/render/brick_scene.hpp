@@ -19,6 +19,7 @@
 #include <list>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -43,46 +44,78 @@ class BrickScene : public RenderScene {
   // `edge`, whose surfaces have the MLS bandwidth h = `bandwidth`. Returns an error when the
   // grid would have more than 10⁷ bricks.
   Status layout(const Box3f& bounds, float edge, float bandwidth, std::uint64_t budget_bytes);
+  // Adds coarser levels of detail 1 … count − 1 over the same box, once level 0's bricks are
+  // marked: level l's bricks are 2^l times level 0's edge; its surface is made by load(l, b)
+  // from one point a cell of edge `cell`·2^(l−1), with bandwidth `bandwidth`·2^(l−1). A coarse
+  // brick holds surface where one of level 0's within its support radius does.
+  void add_levels(int count, float cell, float bandwidth);
+  int level_count() const { return static_cast<int>(grids_.size()); }
 
-  std::size_t brick_count() const { return occupied_.size(); }
-  std::size_t brick_index(int x, int y, int z) const {
-    return static_cast<std::size_t>(x) +
-           static_cast<std::size_t>(dims_[0]) *
-               (static_cast<std::size_t>(y) + static_cast<std::size_t>(dims_[1]) * static_cast<std::size_t>(z));
-  }
-  int brick_coordinate(float v, int axis) const;
-  // The brick's box (without the halo of the support radius).
-  Box3f brick_box(std::size_t b) const;
+  // Level l's cell and bandwidth (add_levels; level 0's cell is 0: its points are the points).
+  float level_cell(int level) const { return grids_[static_cast<std::size_t>(level)].cell; }
+  float level_bandwidth(int level) const { return grids_[static_cast<std::size_t>(level)].bandwidth; }
+
+  // Level 0's grid, which layout() lays and the subclass marks.
+  std::size_t brick_count() const { return grids_[0].occupied.size(); }
+  std::size_t brick_index(int x, int y, int z) const { return grids_[0].index(x, y, z); }
+  int brick_coordinate(float v, int axis) const { return grids_[0].coordinate(v, axis); }
+  // The brick's box at a level (without the halo of the support radius).
+  Box3f brick_box(std::size_t b, int level = 0) const { return grids_[static_cast<std::size_t>(level)].box(b); }
   // Marks brick b as holding surface; rays pass unoccupied bricks without building them.
-  void set_occupied(std::size_t b) { occupied_[b] = true; }
+  void set_occupied(std::size_t b) { grids_[0].occupied[b] = true; }
 
-  // Builds brick b's surface: called at most once at a time per brick, from any thread.
-  virtual StatusOr<SurfacePtr> load(std::size_t b) const = 0;
+  // Builds brick b's surface at a level (0 unless add_levels() was called): called at most once
+  // at a time per brick, from any thread.
+  virtual StatusOr<SurfacePtr> load(int level, std::size_t b) const = 0;
   // What a frame reports as read for its bricks (a paged scene's file bytes); 0 by default.
   virtual std::uint64_t bytes_loaded() const { return 0; }
   // The most its source has held for load() besides the bricks (a compressed model's cache of
   // decoded blocks), counted in a frame's scene_bytes; 0 by default.
   virtual std::uint64_t source_peak_bytes() const { return 0; }
 
-  float edge_ = 0;
-  float bandwidth_ = 0;  // h of every brick's surface
+  float edge_ = 0;       // level 0's
+  float bandwidth_ = 0;  // h of every level-0 brick's surface
   Box3f bounds_;
 
  private:
-  // The brick's surface, from the cache or built by load().
-  StatusOr<SurfacePtr> surface(std::size_t b) const;
-  class Field;  // the surface over bricks, as a ray's march asks for it
+  // One level of detail's bricks.
+  struct Grid {
+    Vec3f origin;
+    float edge = 0;
+    float bandwidth = 0;
+    float cell = 0;  // a coarse level's: its points are one a cell of this edge
+    int dims[3] = {1, 1, 1};
+    std::size_t first_key = 0;  // its bricks' keys in the cache: first_key + b
+    std::vector<bool> occupied;
+
+    std::size_t index(int x, int y, int z) const {
+      return static_cast<std::size_t>(x) +
+             static_cast<std::size_t>(dims[0]) *
+                 (static_cast<std::size_t>(y) + static_cast<std::size_t>(dims[1]) * static_cast<std::size_t>(z));
+    }
+    // The brick coordinate of v along an axis, clamped to the grid.
+    int coordinate(float v, int axis) const;
+    Box3f box(std::size_t b) const;
+    // The brick holding x (floor of its grid coordinates), or false outside the grid.
+    bool of(const Vec3f& x, int c[3]) const;
+  };
+
+  // The brick's surface at a level, from the cache or built by load().
+  StatusOr<SurfacePtr> surface(int level, std::size_t b) const;
+  class Field;  // one level's surface over bricks, as a ray's march asks for it
+  using Fields = std::vector<std::unique_ptr<Field>>;  // one a level, made as a ray needs it
 
   // The first hit of o + t·d (|d| = 1) for t in [t_min, t_max], marched across the bricks of
-  // `field` (one thread's); `evaluations` gets the MLS evaluations; the id only when `want_id`.
-  StatusOr<std::optional<RayHit>> trace(const Field& field, const Vec3f& o, const Vec3f& d, float t_min, float t_max,
-                                        bool want_id, std::uint64_t& evaluations) const;
-  // The brick holding x (floor of its grid coordinates), or false outside the grid.
-  bool brick_of(const Vec3f& x, int c[3]) const;
+  // `fields` (one thread's): at level l from starts[l] on (starts[0] = 0; a level whose start
+  // is infinite is not used); `evaluations` gets the MLS evaluations; the id only when `want_id`.
+  StatusOr<std::optional<RayHit>> trace(Fields& fields, std::span<const float> starts, const Vec3f& o, const Vec3f& d,
+                                        float t_min, float t_max, bool want_id, std::uint64_t& evaluations) const;
 
-  Vec3f origin_;
-  int dims_[3] = {1, 1, 1};
-  std::vector<bool> occupied_;
+  // Where a frame's rays start using each level (trace's `starts`): from FrameOptions'
+  // level_of_detail, and {0} without it or without coarser levels.
+  std::vector<float> level_starts(const FrameOptions& o) const;
+
+  std::vector<Grid> grids_ = std::vector<Grid>(1);
   std::uint64_t budget_ = 0;
 
   // The cache: bricks being built or built, by brick, the most recently used at the front of

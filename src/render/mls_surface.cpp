@@ -131,6 +131,10 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
   }
 }
 
+void MlsSurface::end_within(float reach) {
+  min_support_ = std::max(min_support_, std::exp(-reach * reach * inv_h2_) - floor_w_);
+}
+
 template <typename Visit>
 void MlsSurface::for_each_point(Visit&& visit) const {
   for (int iz = 0; iz < dims_[2]; ++iz) {

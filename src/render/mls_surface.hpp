@@ -53,6 +53,12 @@ class MlsSurface {
   MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> normals, float bandwidth,
              float edge_support = 0, std::span<const std::uint32_t> ids = {});
 
+  // Ends the surface where its support Σ w falls below the weight of one point at distance
+  // `reach` (< r), rather than where the last point leaves r: a coarse level of detail's
+  // surface (render/brick_scene.hpp), whose bandwidth is 2^l times level 0's, ends about where
+  // level 0's does instead of 2^l times farther from the points.
+  void end_within(float reach);
+
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
   std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
 

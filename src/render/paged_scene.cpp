@@ -48,7 +48,7 @@ class PagedScene final : public render::BrickScene {
     std::uint32_t count = 0;   // points, halo included
   };
 
-  StatusOr<SurfacePtr> load(std::size_t b) const override;
+  StatusOr<SurfacePtr> load(int level, std::size_t b) const override;
   std::uint64_t bytes_loaded() const override { return bytes_read_; }
 
   float h_ = 0;
@@ -133,7 +133,8 @@ Status PagedScene::build(const PointCloud& cloud, float bandwidth, std::uint64_t
   return Status();
 }
 
-StatusOr<PagedScene::SurfacePtr> PagedScene::load(std::size_t b) const {
+// One level only: add_levels() is not called.
+StatusOr<PagedScene::SurfacePtr> PagedScene::load(int /*level*/, std::size_t b) const {
   const Brick& brick = bricks_[b];
   std::vector<Vec3f> data(2 * static_cast<std::size_t>(brick.count));
   const std::size_t bytes = data.size() * sizeof(Vec3f);

@@ -81,6 +81,9 @@ Status check_frame(const FrameOptions& o) {
       !(forward.norm() > 0) || !(forward.normalized().cross(o.camera.up).norm() > 1e-6f)) {
     return invalid_argument("the camera needs distinct eye and target and an up vector not along the view");
   }
+  if (!(o.level_of_detail >= 0 && o.level_of_detail <= 64)) {
+    return invalid_argument("level of detail must be 0 (off) to 64 pixels");
+  }
   return Status();
 }
 

@@ -119,7 +119,7 @@ TEST_F(JsonKeys, EverySubcommandWritesTheDocumentedKeys) {
   check("render", sspc(dir, "render --json " + cloud + " -o " + d +
                                 "a.png --size 32x32 --memory-budget 64"));
   check("render", sspc(dir, "render --json " + d + "m.sspc -o " + d +
-                                "b.png --size 32x32 --compare " + d + "a.png"));
+                                "b.png --size 32x32 --lod 0.5 --compare " + d + "a.png"));
   check("render",
         sspc(dir, "render --json " + cloud + " -o " + d + "f.png --size 16x16 --orbit 2"));
   check("error", sspc(dir, "info --json " + d + "absent.ply"), 1);

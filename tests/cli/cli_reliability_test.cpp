@@ -223,8 +223,13 @@ TEST(CliReliability, RenderCompareReportsImagePsnr) {
       sspc(dir, "render " + decoded + " -o " + (dir.path() / "again.png").string() + camera + " --compare " + b, kLimit);
   ASSERT_EQ(self.exit_code, 0) << self.err;
   EXPECT_NE(self.out.find("image PSNR inf dB"), std::string::npos) << self.out;
+  // A reference twice the size each way is a supersampled one, box-filtered to the render's size.
+  const CliRun half = sspc(dir, "render " + decoded + " -o " + a + " -f --size 32x32 --eye -0.017,0.11,0.3 "
+                           "--target -0.017,0.11,0 --compare " + b + " --json", kLimit);
+  EXPECT_EQ(half.exit_code, 0) << half.err;
+  EXPECT_NE(half.out.find("\"hit_both\":"), std::string::npos) << half.out;
   // A PNG of another size, and a file that is no PNG, fail naming the file.
-  const CliRun size = sspc(dir, "render " + model + " -o " + a + " -f --size 32x32 --compare " + b, kLimit);
+  const CliRun size = sspc(dir, "render " + model + " -o " + a + " -f --size 48x48 --compare " + b, kLimit);
   EXPECT_EQ(size.exit_code, 1);
   EXPECT_NE(size.err.find("decoded.png: 64x64 pixels"), std::string::npos) << size.err;
   const CliRun text = sspc(dir, "render " + model + " -o " + a + " -f --size 64x64 --compare " + decoded, kLimit);

@@ -360,6 +360,31 @@ TEST(Renderer, ImageComparisonOfAKnownDifference) {
   b.width = 2;
   b.height = 2;
   EXPECT_FALSE(compare_images(a, b).ok());
+
+  // A supersampled reference, twice the size each way: each 2 × 2 block averaged, misses as
+  // black. Block 0 is 100 throughout (equal to a's 100); block 1 has one hit of 200 and three
+  // misses (50, against a's 60: error 10); block 2 is missed (a's 40 hit in the first only).
+  Image s;
+  s.width = 6;
+  s.height = 2;
+  s.rgb.assign(3 * 12, 0);
+  const auto put = [&](int x, int y, std::uint8_t v) {
+    for (int k = 0; k < 3; ++k) s.rgb[static_cast<std::size_t>(3 * (y * 6 + x) + k)] = v;
+  };
+  for (const auto& [x, y] : {std::pair{0, 0}, std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}}) put(x, y, 100);
+  put(3, 1, 200);
+  Image small;
+  small.width = 3;
+  small.height = 1;
+  small.rgb = {100, 100, 100, 60, 60, 60, 40, 40, 40};
+  auto ss = compare_images(small, s);
+  ASSERT_TRUE(ss.ok()) << ss.status().to_string();
+  EXPECT_EQ(ss->hit_both, 2u);
+  EXPECT_EQ(ss->hit_first_only, 1u);
+  EXPECT_NEAR(ss->psnr_hit, 10 * std::log10(255.0 * 255.0 / 50.0), 0.01);  // MSE (0 + 100) / 2
+  s.width = 5;  // not a whole multiple
+  s.rgb.resize(3 * 10);
+  EXPECT_FALSE(compare_images(small, s).ok());
 }
 
 // write_png then read_png gives the pixels back; a file that is not a PNG, or is cut short, is
@@ -473,18 +498,24 @@ TEST(Renderer, HilbertTilesCoverTheImageOnceInNeighbourOrder) {
   }
 }
 
-// A compressed scene's image depends neither on its budget nor on the thread count, and a
-// second frame with room for every brick builds none.
-TEST(BrickScene, SameImageWhateverTheBudgetAndThreads) {
-  SphereScene scene;
+// The sphere encoded at level 5 and opened, shared as a scene holds it; null on failure.
+std::shared_ptr<const CompressedModel> sphere_model(const SphereScene& scene) {
   test::TempDir dir;
   const auto path = dir.path() / "sphere.sspc";
   EncodeOptions encode_options;
   encode_options.level = 5;
-  ASSERT_TRUE(encode(scene.cloud, path, encode_options).ok());
+  if (!encode(scene.cloud, path, encode_options).ok()) return nullptr;
   auto opened = CompressedModel::open(path);
-  ASSERT_TRUE(opened.ok());
-  const auto model = std::make_shared<const CompressedModel>(std::move(opened).value());
+  if (!opened.ok()) return nullptr;
+  return std::make_shared<const CompressedModel>(std::move(opened).value());
+}
+
+// A compressed scene's image depends neither on its budget nor on the thread count, and a
+// second frame with room for every brick builds none.
+TEST(BrickScene, SameImageWhateverTheBudgetAndThreads) {
+  SphereScene scene;
+  const auto model = sphere_model(scene);
+  ASSERT_NE(model, nullptr);
   auto roomy = RenderScene::from_compressed(model, {.memory_budget_bytes = std::uint64_t{1} << 30});
   auto tight = RenderScene::from_compressed(model, {.memory_budget_bytes = 64 << 10});
   ASSERT_TRUE(roomy.ok() && tight.ok());
@@ -620,6 +651,49 @@ TEST(Renderer, CompressedPlaneHasNoSeams) {
   // Mean squared grey step between neighbouring pixels: a seam would show as a larger one.
   EXPECT_LT(border, 1.5 * inside + 0.5) << "border " << border << ", inside " << inside;
   std::printf("mean squared grey step: %.2f across patch borders, %.2f inside patches\n", border, inside);
+}
+
+// Level of detail (FrameOptions::level_of_detail): where the points lie denser than the pixels,
+// a compressed scene intersects a coarser form of the surface (one point a cell of 2, 4 or 8
+// times the points' spacing, render/brick_scene.hpp). On a smooth surface that is the same
+// picture (a sphere whose spacing projects to about 0.3 pixel: level 1 used, from a third of the
+// points), and like every frame it depends neither on the budget nor on the thread count.
+TEST(Renderer, LevelOfDetailKeepsASmoothSurfaceFromFewerPoints) {
+  SphereScene scene;
+  scene.options.width = scene.options.height = 48;
+  const auto model = sphere_model(scene);
+  ASSERT_NE(model, nullptr);
+  const SceneOptions roomy{.memory_budget_bytes = std::uint64_t{1} << 30};
+  auto fine_scene = RenderScene::from_compressed(model, roomy);
+  auto coarse_scene = RenderScene::from_compressed(model, roomy);
+  auto tight = RenderScene::from_compressed(model, {.memory_budget_bytes = 64 << 10});
+  ASSERT_TRUE(fine_scene.ok() && coarse_scene.ok() && tight.ok());
+  FrameOptions coarse = scene.options;
+  coarse.level_of_detail = 1;
+  auto full = (*fine_scene)->render(scene.options);
+  auto a = (*coarse_scene)->render(coarse);
+  ASSERT_TRUE(full.ok() && a.ok());
+  const auto c = compare_images(*a, *full);
+  ASSERT_TRUE(c.ok());
+  std::printf("level of detail 1: %.2f dB over %llu pixels hit, %.3f%% hit by one only\n", c->psnr_hit,
+              static_cast<unsigned long long>(c->hit_both), 100 * c->one_only_fraction());
+  EXPECT_GT(c->hit_both, 800u);
+  EXPECT_GE(c->psnr_hit, 35.0);
+  EXPECT_LE(c->one_only_fraction(), 0.005);
+  EXPECT_NE(a->rgb, full->rgb);  // the coarse levels were used
+  auto b = (*tight)->render(coarse);
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(a->rgb, b->rgb);
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    auto single = (*fine_scene)->render(coarse);
+    ASSERT_TRUE(single.ok());
+    EXPECT_EQ(single->rgb, a->rgb);
+  }
+  // Without level of detail, the frame is the full one again, from the same scene.
+  auto again = (*coarse_scene)->render(scene.options);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->rgb, full->rgb);
 }
 
 }  // namespace
