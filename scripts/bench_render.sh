@@ -93,12 +93,13 @@ runs = [json.load(open(p)) for p in sys.argv[7:]]
 runs.sort(key=lambda r: r["render_seconds"])
 m = runs[len(runs) // 2]
 warm = float(list(csv.DictReader(open(warm_csv)))[1]["render_seconds"])
+psnr = "inf" if m.get("psnr_hit_db") is None else f'{m["psnr_hit_db"]:.2f}'
 print(f'{scan},{label},{m["points"]},{size},{threads},{runs[0]["build_seconds"]:.3f},{m["render_seconds"]:.3f},'
       f'{m["rays"] / m["render_seconds"] / 1e6:.3f},{m["rays"] / m["render_cpu_seconds"] / 1e6:.3f},'
       f'{warm:.3f},{m["rays"] / warm / 1e6:.3f},'
       f'{m["hits"]},{m["evaluations_per_hit"]:.1f},'
       f'{m["scene_bytes_per_point"]:.2f},{runs[0]["resident_growth_bytes"] / m["points"]:.2f},{int(rss) / 1024:.0f},'
-      + (f'{m["psnr_hit_db"] if m["psnr_hit_db"] is not None else "inf"},{100 * m["hit_one_only_fraction"]:.3f}'
+      + (f'{psnr},{100 * m["hit_one_only_fraction"]:.3f}'
          if "psnr_hit_db" in m else ","))
 EOF
   tail -1 "$csv"
