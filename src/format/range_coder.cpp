@@ -4,40 +4,11 @@
 
 namespace sspc::codec {
 
-namespace {
-
-constexpr std::uint32_t kTop = 1u << 24;
-
-inline void adapt(std::uint16_t& p, unsigned bit) {
-  if (bit == 0) {
-    p = static_cast<std::uint16_t>(p + (((1u << kProbabilityBits) - p) >> kAdaptationShift));
-  } else {
-    p = static_cast<std::uint16_t>(p - (p >> kAdaptationShift));
-  }
-}
-
-}  // namespace
-
-void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
-  const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
-  if (bit == 0) {
-    range_ = bound;
-  } else {
-    low_ += bound;
-    range_ -= bound;
-  }
-  adapt(p, bit);
-  while (range_ < kTop) {
-    range_ <<= 8;
-    shift_low();
-  }
-}
-
 void RangeEncoder::encode_direct(std::uint32_t value, int bits) {
   for (int i = bits - 1; i >= 0; --i) {
     range_ >>= 1;
     if ((value >> i) & 1u) low_ += range_;
-    while (range_ < kTop) {
+    while (range_ < kRangeTop) {
       range_ <<= 8;
       shift_low();
     }
@@ -69,31 +40,6 @@ RangeDecoder::RangeDecoder(std::span<const std::byte> in) : in_(in) {
   for (int i = 0; i < 4; ++i) code_ = (code_ << 8) | next();
 }
 
-std::uint8_t RangeDecoder::next() {
-  if (position_ < in_.size()) return static_cast<std::uint8_t>(in_[position_++]);
-  ++overrun_;
-  return 0;
-}
-
-unsigned RangeDecoder::decode(std::uint16_t& p) {
-  const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
-  unsigned bit;
-  if (code_ < bound) {
-    range_ = bound;
-    bit = 0;
-  } else {
-    code_ -= bound;
-    range_ -= bound;
-    bit = 1;
-  }
-  adapt(p, bit);
-  while (range_ < kTop) {
-    range_ <<= 8;
-    code_ = (code_ << 8) | next();
-  }
-  return bit;
-}
-
 std::uint32_t RangeDecoder::decode_direct(int bits) {
   std::uint32_t value = 0;
   for (int i = 0; i < bits; ++i) {
@@ -104,7 +50,7 @@ std::uint32_t RangeDecoder::decode_direct(int bits) {
       bit = 1;
     }
     value = (value << 1) | bit;
-    while (range_ < kTop) {
+    while (range_ < kRangeTop) {
       range_ <<= 8;
       code_ = (code_ << 8) | next();
     }
