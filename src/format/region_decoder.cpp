@@ -18,6 +18,14 @@ Vec3f rotate(const Eigen::Matrix3f& r, const Vec3f& v) {
           r(2, 0) * v.x() + r(2, 1) * v.y() + r(2, 2) * v.z()};
 }
 
+// Room for `more` elements, growing geometrically: emit_patch is called patch after patch on
+// one cloud, where an exact reserve would copy it every time; on a fresh cloud (one patch)
+// the arrays are sized once instead of growing by doubling from empty.
+template <typename T>
+void reserve_more(std::vector<T>& v, std::size_t more) {
+  if (v.capacity() - v.size() < more) v.reserve(std::max(2 * v.capacity(), v.size() + more));
+}
+
 }  // namespace
 
 void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
@@ -64,6 +72,9 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
   if (!overlap) region.reset(k, rotation, centre, neighbours);
   const bool normals = cw.normals != nullptr;
   const bool colours = cw.colours != nullptr;
+  reserve_more(out.positions, cw.size);
+  if (normals) reserve_more(out.normals, cw.size);
+  if (colours) reserve_more(out.colours, cw.size);
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
     if (!overlap && !region.claims(q, cw.norm2[i])) continue;
