@@ -58,6 +58,10 @@ constexpr std::uint64_t kModelCacheShare = 8;
 // Patches sampled to measure the decoded model's spacing.
 constexpr std::size_t kSpacingPatches = 1024;
 
+// The area spacing (DecodedSampling) is at most this many nominal spacings: about 2 on a
+// Poisson-disc-free random sampling, 1 to 1.5 on scans; a hostile model must not make the
+// coarse levels' support span many level-0 bricks (each one's occupancy marks that many).
+constexpr double kMaxAreaSpacing = 4;
 // Levels of detail (BrickScene::add_levels): 0 and the coarser 1 to 3, whose points lie 2, 4 and
 // 8 spacings apart. The support radius of level 3 is still within one level-0 brick (≥ 8r).
 constexpr int kLevels = 4;
@@ -267,7 +271,7 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   progress_end(progress);
   // Level 1's cells twice the area spacing, and its bandwidth as many of them as level 0's is
   // spacings (so that where the spacing is even, h doubles from level to level).
-  const double cell = 2 * std::min(sampling.area_spacing, kMaxNormalReach * sampling.spacing);
+  const double cell = 2 * std::min(sampling.area_spacing, kMaxAreaSpacing * sampling.spacing);
   add_levels(kLevels, static_cast<float>(cell), static_cast<float>(static_cast<double>(bandwidth) * cell));
   build_seconds_ = seconds_since(start);
   memory_bytes_ = brick_count() / 8 + codeword_of_patch_.size() * sizeof(std::uint32_t);
@@ -343,9 +347,18 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_cells(int level, std
   std::int64_t lo[3];
   std::int64_t n[3];
   Box3f wide;
+  // Cell coordinates as floats first: far outside int64's range they must not be converted.
+  const auto cell_of = [&](float v, int a) { return std::floor((v - origin[a]) / cell); };
+  double cells = 1;
   for (int a = 0; a < 3; ++a) {
-    lo[a] = static_cast<std::int64_t>(std::floor((own.min()[a] - reach - origin[a]) / cell));
-    const auto hi = static_cast<std::int64_t>(std::floor((own.max()[a] + reach - origin[a]) / cell));
+    const float first = cell_of(own.min()[a] - reach, a), last = cell_of(own.max()[a] + reach, a);
+    cells *= static_cast<double>(last) - static_cast<double>(first) + 1;
+    if (!(std::abs(first) < 1e15f && std::abs(last) < 1e15f) || !(cells < 1e15)) {
+      return invalid_argument("level of detail: a brick of the model spans too many cells (a point spacing far "
+                              "below its extent)");
+    }
+    lo[a] = static_cast<std::int64_t>(first);
+    const auto hi = static_cast<std::int64_t>(last);
     n[a] = hi - lo[a] + 1;
     // Half a cell more: a point that the floor below puts in an edge cell is decoded whatever
     // the rounding of the box's bounds.
@@ -364,8 +377,8 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_cells(int level, std
     std::int64_t g[3];
     bool inside = true;
     for (int a = 0; a < 3; ++a) {
-      const float u = std::floor((cloud.positions[i][a] - origin[a]) / cell);
-      g[a] = static_cast<std::int64_t>(std::clamp(u, -1e9f, 1e9f)) - lo[a];
+      const float u = cell_of(cloud.positions[i][a], a);
+      g[a] = static_cast<std::int64_t>(std::clamp(u, -1e15f, 1e15f)) - lo[a];
       inside = inside && g[a] >= 0 && g[a] < n[a];
     }
     if (!inside) continue;

@@ -696,5 +696,32 @@ TEST(Renderer, LevelOfDetailKeepsASmoothSurfaceFromFewerPoints) {
   EXPECT_EQ(again->rgb, full->rgb);
 }
 
+// Level of detail on a model whose extent dwarfs its spacing (two small spheres 10⁵ radii
+// apart): the coarse bricks' cell grids are bounded, and the frame completes with both spheres.
+TEST(Renderer, LevelOfDetailOnAFarSpreadModel) {
+  PointCloud cloud = synthetic::sphere(3000, 1.0);
+  const std::size_t half = cloud.size();
+  for (std::size_t i = 0; i < half; ++i) {
+    cloud.positions.push_back(cloud.positions[i] + Vec3f(1e5f, 0, 0));
+    cloud.normals.push_back(cloud.normals[i]);
+  }
+  test::TempDir dir;
+  const auto path = dir.path() / "far.sspc";
+  ASSERT_TRUE(encode(cloud, path, EncodeOptions{}).ok());
+  auto model = CompressedModel::open(path);
+  ASSERT_TRUE(model.ok());
+  FrameOptions options;
+  options.width = options.height = 64;
+  options.level_of_detail = 1;
+  for (const float x : {0.0f, 1e5f}) {
+    options.camera.eye = Vec3f(x, 0, 20);
+    options.camera.target = Vec3f(x, 0, 0);
+    auto image = render_compressed(*model, options);
+    ASSERT_TRUE(image.ok()) << image.status().to_string();
+    const auto hits = std::count_if(image->depth.begin(), image->depth.end(), [](float t) { return std::isfinite(t); });
+    EXPECT_GT(hits, 20) << "sphere at x = " << x;
+  }
+}
+
 }  // namespace
 }  // namespace sspc
