@@ -2,7 +2,8 @@
 //
 // An input that starts with the .sspc magic is opened as a compressed model (as it is, and with
 // every CRC recomputed, crc_repair.hpp, so that hostile values with valid checksums reach the
-// renderer: a header spacing of 0 once made the march stand still) and rendered directly. Any
+// renderer: a header spacing of 0 once made the march stand still) and rendered directly, one in
+// three also with level of detail. Any
 // other input goes to the reader its first bytes name (PLY, PCD, else XYZ text), gets normals
 // when it has none, and is rendered in memory and, for one input in four, paged through a file.
 // What must hold: a render finishes (libFuzzer's -timeout reports one that does not), and either
@@ -60,7 +61,14 @@ void render_model(const std::string& bytes) {
     SSPC_FUZZ_CHECK(!scene.status().message().empty());
     return;
   }
-  check_image((*scene)->render(options_for((*scene)->bounds())));
+  sspc::FrameOptions frame = options_for((*scene)->bounds());
+  check_image((*scene)->render(frame));
+  // And through the coarser levels of detail, for one input in three: a 12-pixel image puts
+  // most scenes' points far below a pixel.
+  if (bytes.size() % 3 == 0) {
+    frame.level_of_detail = 1;
+    check_image((*scene)->render(frame));
+  }
 }
 
 // A private folder for the paged scene's page file, removed when the process exits.
