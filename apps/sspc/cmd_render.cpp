@@ -327,8 +327,10 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   RenderStats total;
   std::vector<double> seconds;
   std::uint64_t bytes = (*scene)->memory_bytes();
+  std::uint64_t largest_frame = 0;
   for (const RenderStats& f : frames) {
     bytes = std::max(bytes, f.scene_bytes);
+    largest_frame = std::max(largest_frame, f.frame_bytes);
     total.bytes_read += f.bytes_read;
     total.pages_read += f.pages_read;
     total.rays += f.rays;
@@ -363,6 +365,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
         render_cpu_seconds > 0 ? static_cast<double>(total.rays) / render_cpu_seconds : 0.0;
     json["scene_bytes"] = bytes;
     json["scene_bytes_per_point"] = points > 0 ? static_cast<double>(bytes) / static_cast<double>(points) : 0.0;
+    json["frame_bytes"] = largest_frame;
     json["resident_growth_bytes"] =
         resident_after > resident_before ? static_cast<std::uint64_t>(resident_after - resident_before) : 0;
     json["bytes_read"] = total.bytes_read;

@@ -72,6 +72,7 @@ struct RenderStats {
   std::uint64_t hits = 0;
   std::uint64_t evaluations = 0;  // MLS evaluations, all rays
   std::uint64_t scene_bytes = 0;  // points and normals held, plus the acceleration structure
+  std::uint64_t frame_bytes = 0;  // the frame's own buffers: each pixel's hit, and the image
   std::uint64_t bytes_read = 0;   // a paged scene: what this frame read from its page file
   std::uint64_t pages_read = 0;   // ... in how many bricks
 };

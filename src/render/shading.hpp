@@ -52,6 +52,9 @@ class Frame {
   // Each pixel is written by one task: no synchronisation needed.
   void set(int x, int y, float t, const Vec3f& normal, std::uint32_t id);
   Image shade(Shade mode, const PinholeCamera& camera) const;
+  std::size_t memory_bytes() const {
+    return depth_.size() * sizeof(float) + normal_.size() * sizeof(Vec3f) + id_.size() * sizeof(std::uint32_t);
+  }
 
  private:
   int width_, height_;
@@ -105,6 +108,7 @@ Image trace_image(const FrameOptions& o, const PinholeCamera& camera, MakeTrace&
   if (stats != nullptr) {
     stats->render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
+    stats->frame_bytes = frame.memory_bytes() + image.rgb.size() + image.depth.size() * sizeof(float);
     stats->hits = hits;
     stats->evaluations = evaluations;
   }
