@@ -498,17 +498,18 @@ TEST(Renderer, HilbertTilesCoverTheImageOnceInNeighbourOrder) {
   }
 }
 
-// The sphere encoded at level 5 and opened, shared as a scene holds it; null on failure.
-std::shared_ptr<const CompressedModel> sphere_model(const SphereScene& scene) {
+// `cloud` encoded at `level` and opened, shared as a scene holds it; null on failure.
+std::shared_ptr<const CompressedModel> encoded_model(const PointCloud& cloud, int level = EncodeOptions{}.level) {
   test::TempDir dir;
-  const auto path = dir.path() / "sphere.sspc";
+  const auto path = dir.path() / "model.sspc";
   EncodeOptions encode_options;
-  encode_options.level = 5;
-  if (!encode(scene.cloud, path, encode_options).ok()) return nullptr;
+  encode_options.level = level;
+  if (!encode(cloud, path, encode_options).ok()) return nullptr;
   auto opened = CompressedModel::open(path);
   if (!opened.ok()) return nullptr;
   return std::make_shared<const CompressedModel>(std::move(opened).value());
 }
+std::shared_ptr<const CompressedModel> sphere_model(const SphereScene& scene) { return encoded_model(scene.cloud, 5); }
 
 // A compressed scene's image depends neither on its budget nor on the thread count, and a
 // second frame with room for every brick builds none.
@@ -592,11 +593,8 @@ TEST(Renderer, CompressedPlaneHasNoSeams) {
       plane.normals.push_back(Vec3f::UnitZ());
     }
   }
-  test::TempDir dir;
-  const auto path = dir.path() / "plane.sspc";
-  ASSERT_TRUE(encode(plane, path, EncodeOptions{}).ok());
-  auto model = CompressedModel::open(path);
-  ASSERT_TRUE(model.ok());
+  const auto model = encoded_model(plane);
+  ASSERT_NE(model, nullptr);
   FrameOptions options;
   options.width = options.height = 160;
   options.camera.eye = Vec3f(0.5f, -0.1f, 0.7f);
@@ -705,11 +703,8 @@ TEST(Renderer, LevelOfDetailOnAFarSpreadModel) {
     cloud.positions.push_back(cloud.positions[i] + Vec3f(1e5f, 0, 0));
     cloud.normals.push_back(cloud.normals[i]);
   }
-  test::TempDir dir;
-  const auto path = dir.path() / "far.sspc";
-  ASSERT_TRUE(encode(cloud, path, EncodeOptions{}).ok());
-  auto model = CompressedModel::open(path);
-  ASSERT_TRUE(model.ok());
+  const auto model = encoded_model(cloud);
+  ASSERT_NE(model, nullptr);
   FrameOptions options;
   options.width = options.height = 64;
   options.level_of_detail = 1;
