@@ -235,6 +235,11 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     scene = RenderScene::from_compressed(std::make_shared<const CompressedModel>(std::move(model).value()),
                                          scene_options);
   } else {
+    // A point cloud is rendered from its points at every distance: say so rather than ignore it.
+    if (o.lod > 0 && !global.quiet) {
+      std::fprintf(stderr, "sspc: warning: %s: --lod applies to compressed models (.sspc) only; ignored\n",
+                   o.input.c_str());
+    }
     ReadOptions read;
     read.progress = progress.get();
     progress_stages(progress.get(), 3);

@@ -223,6 +223,10 @@ TEST(CliReliability, RenderCompareReportsImagePsnr) {
       sspc(dir, "render " + decoded + " -o " + (dir.path() / "again.png").string() + camera + " --compare " + b, kLimit);
   ASSERT_EQ(self.exit_code, 0) << self.err;
   EXPECT_NE(self.out.find("image PSNR inf dB"), std::string::npos) << self.out;
+  // --lod is for compressed models: on a point cloud it is ignored, and said so.
+  const CliRun lod = sspc(dir, "render " + decoded + " -o " + a + " -f --size 16x16 --lod 1", kLimit);
+  EXPECT_EQ(lod.exit_code, 0) << lod.err;
+  EXPECT_NE(lod.err.find("--lod applies to compressed models (.sspc) only"), std::string::npos) << lod.err;
   // A reference twice the size each way is a supersampled one, box-filtered to the render's size.
   const CliRun half = sspc(dir, "render " + decoded + " -o " + a + " -f --size 32x32 --eye -0.017,0.11,0.3 "
                            "--target -0.017,0.11,0 --compare " + b + " --json", kLimit);
