@@ -51,20 +51,6 @@ void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const V
   });
 }
 
-bool RegionTest::claims(const Vec3f& q, float norm2) const {
-  // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away and
-  // cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop stops
-  // there. Skipping them never changes the outcome of the rule.
-  const float reach = 4.001f * norm2;
-  for (const FrameNeighbour& f : frame_) {
-    if (f.ee > reach) break;
-    const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
-    if (s > 0.0f || (s == 0.0f && k_ < f.index)) continue;
-    return false;
-  }
-  return true;
-}
-
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
                 const CodewordView& cw, std::span<const NeighbourInstance> neighbours, bool overlap,
                 const Box3f* clip, PointCloud& out) {
@@ -72,18 +58,32 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
   if (!overlap) region.reset(k, rotation, centre, neighbours);
   const bool normals = cw.normals != nullptr;
   const bool colours = cw.colours != nullptr;
+  // Written in place past the arrays' ends, then cut to what was kept.
+  const std::size_t first = out.positions.size();
   reserve_more(out.positions, cw.size);
-  if (normals) reserve_more(out.normals, cw.size);
-  if (colours) reserve_more(out.colours, cw.size);
+  out.positions.resize(first + cw.size);
+  if (normals) {
+    reserve_more(out.normals, cw.size);
+    out.normals.resize(first + cw.size);
+  }
+  if (colours) {
+    reserve_more(out.colours, cw.size);
+    out.colours.resize(first + cw.size);
+  }
+  std::size_t kept = first;
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
     if (!overlap && !region.claims(q, cw.norm2[i])) continue;
     const Vec3f p = transform_point(rotation, q, centre);
     if (clip != nullptr && !clip->contains(p)) continue;
-    out.positions.push_back(p);
-    if (normals) out.normals.push_back(rotate(rotation, cw.normals[i]));
-    if (colours) out.colours.push_back(cw.colours[i]);
+    out.positions[kept] = p;
+    if (normals) out.normals[kept] = rotate(rotation, cw.normals[i]);
+    if (colours) out.colours[kept] = cw.colours[i];
+    ++kept;
   }
+  out.positions.resize(kept);
+  if (normals) out.normals.resize(kept);
+  if (colours) out.colours.resize(kept);
 }
 
 }  // namespace sspc::codec

@@ -70,4 +70,20 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rota
                 std::span<const NeighbourInstance> neighbours, bool overlap, const Box3f* clip,
                 PointCloud& out);
 
+// Inline: called for every code-word point a patch decodes (out of line, one patch of
+// dragon_scans decoded in 11.2 us instead of 10.7, interleaved decode_bench runs).
+inline bool RegionTest::claims(const Vec3f& q, float norm2) const {
+  // Neighbours are sorted by |e_j|²; those with |e_j|² > 4.001·|q|² are more than 2|q| away and
+  // cannot claim q (s ≥ |e_j|(|e_j| − 2|q|), a margin far above rounding), so the loop stops
+  // there. Skipping them never changes the outcome of the rule.
+  const float reach = 4.001f * norm2;
+  for (const FrameNeighbour& f : frame_) {
+    if (f.ee > reach) break;
+    const float s = f.ee - 2.0f * (q.x() * f.x + q.y() * f.y + q.z() * f.z);
+    if (s > 0.0f || (s == 0.0f && k_ < f.index)) continue;
+    return false;
+  }
+  return true;
+}
+
 }  // namespace sspc::codec
