@@ -11,6 +11,11 @@
 // same points, so an image does not depend on what the cache held or on the thread count. The
 // cache keeps at least 8 bricks whatever the budget, so that a budget smaller than a few rows'
 // bricks costs rebuilding them row by row rather than ray by ray.
+//
+// A scene may have coarser levels of detail (add_levels), grids of larger bricks whose surfaces
+// rest on fewer points; a frame with FrameOptions::level_of_detail marches each ray through
+// level l from the distance where that level's points lie level_of_detail pixels apart, and
+// level 0 before (docs/ARCHITECTURE.md, "Level of detail").
 #pragma once
 
 #include <atomic>
@@ -49,7 +54,6 @@ class BrickScene : public RenderScene {
   // from one point a cell of edge `cell`·2^(l−1), with bandwidth `bandwidth`·2^(l−1). A coarse
   // brick holds surface where one of level 0's within its support radius does.
   void add_levels(int count, float cell, float bandwidth);
-  int level_count() const { return static_cast<int>(grids_.size()); }
 
   // Level l's cell and bandwidth (add_levels; level 0's cell is 0: its points are the points).
   float level_cell(int level) const { return grids_[static_cast<std::size_t>(level)].cell; }

@@ -62,8 +62,8 @@ constexpr std::size_t kSpacingPatches = 1024;
 // Poisson-disc-free random sampling, 1 to 1.5 on scans; a hostile model must not make the
 // coarse levels' support span many level-0 bricks (each one's occupancy marks that many).
 constexpr double kMaxAreaSpacing = 4;
-// Levels of detail (BrickScene::add_levels): 0 and the coarser 1 to 3, whose points lie 2, 4 and
-// 8 spacings apart. The support radius of level 3 is still within one level-0 brick (≥ 8r).
+// Levels of detail (BrickScene::add_levels): 0 and the coarser 1 to 3, one point a cell of 2, 4
+// and 8 area spacings (DecodedSampling).
 constexpr int kLevels = 4;
 // Points whose nearest neighbour is measured, about (nominal_spacing's sample).
 constexpr double kSpacingSamples = 10000;
@@ -166,14 +166,14 @@ class CompressedScene final : public render::BrickScene {
 
  private:
   StatusOr<SurfacePtr> load(int level, std::size_t b) const override;
-  // Level 0: the decoded points themselves. Coarser levels: one point a cell of 2^level spacings.
+  // Level 0: the decoded points themselves. Coarser levels: one point a cell of 2^level area
+  // spacings.
   StatusOr<SurfacePtr> load_points(std::size_t b) const;
   StatusOr<SurfacePtr> load_cells(int level, std::size_t b) const;
   std::uint64_t source_peak_bytes() const override { return model_->cache_peak_bytes(); }
 
   std::shared_ptr<const CompressedModel> model_;
   bool has_normals_ = false;
-  float spacing_ = 0;  // of the decoded points, on the ladder
   float h_ = 0;
   float r_ = 0;       // the MLS support radius
   float margin_ = 0;  // what a brick decodes around its box
@@ -222,7 +222,6 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   if (!(spacing >= kMinSpacing && spacing <= 10.0 * static_cast<double>(info.patch_radius))) {
     return invalid_argument("the decoded model's point spacing does not fit its patch radius: it cannot be rendered");
   }
-  spacing_ = static_cast<float>(spacing);
   h_ = static_cast<float>(static_cast<double>(bandwidth) * spacing);
   r_ = render::MlsSurface(std::span<const Vec3f>(), std::span<const Vec3f>(), h_).support_radius();
   margin_ = r_ + (has_normals_ ? 0.0f : static_cast<float>(sampling.normal_reach));
@@ -328,15 +327,15 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_points(std::size_t b
       std::make_shared<const render::MlsSurface>(positions, normals, h_, 0.0f, ids));
 }
 
-// A coarse level's brick: the decoded points binned in a grid of cells 2^level spacings wide,
+// A coarse level's brick: the decoded points binned in a grid of cells 2^level area spacings wide,
 // anchored at the scene's grid so that every brick bins alike, and one point a cell, the
 // centroid of its points, with the normal of the PCA of the points of the cell and its 26
 // neighbours (their moments summed: about 9 cells' points on a surface, 36 at level 1 and 576 at
 // level 3, with no neighbour search). A brick decodes every cell within its support radius plus
 // two cells, so that the cells it keeps (a centroid within the support radius of its box) have
 // all their neighbours whole, whichever brick holds them: two bricks give a shared cell the same
-// point and normal. The surface's bandwidth is 2^level times level 0's, as the points are that
-// much sparser.
+// point and normal. The surface's bandwidth is as many cells as level 0's is spacings, and it ends
+// where level 0's would (MlsSurface::end_within), not 2^level times farther from the points.
 StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_cells(int level, std::size_t b) const {
   const float cell = level_cell(level);
   const float h = level_bandwidth(level);
