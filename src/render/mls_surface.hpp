@@ -55,8 +55,8 @@ class MlsSurface {
 
   // Ends the surface where its support Σ w falls below the weight of one point at distance
   // `reach` (< r), rather than where the last point leaves r: a coarse level of detail's
-  // surface (render/brick_scene.hpp), whose bandwidth is 2^l times level 0's, ends about where
-  // level 0's does instead of 2^l times farther from the points.
+  // surface (render/brick_scene.hpp), whose bandwidth is 2^l or more times level 0's, ends about
+  // where level 0's does instead of that much farther from the points.
   void end_within(float reach);
 
   // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
