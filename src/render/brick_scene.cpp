@@ -20,8 +20,6 @@ constexpr std::size_t kMinBricks = 8;
 
 Status BrickScene::layout(const Box3f& bounds, float edge, float bandwidth, std::uint64_t budget_bytes) {
   if (bounds_.isEmpty()) bounds_ = bounds;
-  edge_ = edge;
-  bandwidth_ = bandwidth;
   budget_ = budget_bytes;
   Grid& grid = grids_[0];
   grid.origin = bounds.min();
@@ -81,11 +79,7 @@ void BrickScene::add_levels(int count, float cell, float bandwidth) {
 }
 
 Box3f BrickScene::surface_bounds() const {
-  const Grid& grid = grids_[0];
-  const Box3f box(grid.origin, grid.origin + grid.edge * Vec3f(static_cast<float>(grid.dims[0]),
-                                                               static_cast<float>(grid.dims[1]),
-                                                               static_cast<float>(grid.dims[2])));
-  return box.merged(bounds_);
+  return Box3f(grids_[0].origin, grids_[0].far_corner()).merged(bounds_);
 }
 
 int BrickScene::Grid::coordinate(float v, int axis) const {
@@ -280,11 +274,7 @@ StatusOr<std::optional<RayHit>> BrickScene::trace(Fields& fields, std::span<cons
   const std::optional<RayHit> miss;
   // The ray's interval in the grid of bricks.
   float t0 = std::max(t_min, 0.0f), t1 = t_max;
-  const Grid& fine = grids_[0];
-  const Vec3f far_corner = fine.origin + fine.edge * Vec3f(static_cast<float>(fine.dims[0]),
-                                                           static_cast<float>(fine.dims[1]),
-                                                           static_cast<float>(fine.dims[2]));
-  if (!clip_to_box(fine.origin, far_corner, eye, d, t0, t1)) return miss;
+  if (!clip_to_box(grids_[0].origin, grids_[0].far_corner(), eye, d, t0, t1)) return miss;
   // Level by level: level l from starts[l], less its bandwidth (a crossing that level l − 1's
   // last samples had not bracketed is found from just before), to the next level's start.
   for (std::size_t level = 0; level < starts.size(); ++level) {

@@ -77,8 +77,6 @@ class BrickScene : public RenderScene {
   // decoded blocks), counted in a frame's scene_bytes; 0 by default.
   virtual std::uint64_t source_peak_bytes() const { return 0; }
 
-  float edge_ = 0;       // level 0's
-  float bandwidth_ = 0;  // h of every level-0 brick's surface
   Box3f bounds_;
 
  private:
@@ -100,6 +98,10 @@ class BrickScene : public RenderScene {
     // The brick coordinate of v along an axis, clamped to the grid.
     int coordinate(float v, int axis) const;
     Box3f box(std::size_t b) const;
+    // The grid's corner opposite its origin.
+    Vec3f far_corner() const {
+      return origin + edge * Vec3f(static_cast<float>(dims[0]), static_cast<float>(dims[1]), static_cast<float>(dims[2]));
+    }
     // The brick holding x (floor of its grid coordinates), or false outside the grid.
     bool of(const Vec3f& x, int c[3]) const;
   };
