@@ -7,10 +7,16 @@
 
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
+
+#if defined(__linux__)
+#include <unistd.h>
+#endif
 
 #include "command.hpp"
 #include "core/atomic_file.hpp"
@@ -30,6 +36,31 @@ std::vector<std::string> files_named(const CLI::App& app) {
     for (const std::string& value : option->results()) files.push_back(value);
   }
   return files;
+}
+
+// Runs the program again with glibc's malloc asking for transparent huge pages
+// (GLIBC_TUNABLES=glibc.malloc.hugetlb=1), where the kernel gives them only on request
+// (transparent_hugepage "madvise", Debian's default). Large arrays then take a 2 MiB page where
+// they took 512 small ones: fewer page faults, and far fewer TLB misses in the neighbour searches
+// over the whole cloud. Encoding autzen at level 5 on 2 cores: 47.7 s -> 43.6 s (user 74.4 ->
+// 70.4 s, system 4.0 -> 3.3 s), the same peak resident size (1.40 GB). glibc reads its tunables
+// only when a process starts, hence the second start; the variable, once set (here or by the
+// user), stops a third. Returns only where that is not done (the exec failed, or not needed).
+void restart_with_huge_pages(char** argv) {
+#if defined(__linux__) && defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables != nullptr && std::strstr(tunables, "glibc.malloc.hugetlb") != nullptr) return;
+  std::ifstream policy("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string line;
+  if (!std::getline(policy, line) || line.find("[madvise]") == std::string::npos) return;
+  const std::string value = tunables != nullptr && *tunables != '\0'
+                                ? std::string(tunables) + ":glibc.malloc.hugetlb=1"
+                                : std::string("glibc.malloc.hugetlb=1");
+  if (::setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  ::execv("/proc/self/exe", argv);  // returns only on failure: carry on as we are
+#else
+  (void)argv;
+#endif
 }
 
 }  // namespace
@@ -102,7 +133,11 @@ int main(int argc, char** argv) {
       // tiles are sized with what that keeps (tile_points_for_memory). Not for render, whose
       // --memory-budget is what the process holds: kept, the frame's buffers and every brick's
       // build stayed resident (autzen level 5, 1024², 64 MiB: 137 MB against 69 MB of scene).
-      if (command.app->get_name() != "render") sspc::keep_freed_memory();
+      // The same commands run on transparent huge pages (restart_with_huge_pages).
+      if (command.app->get_name() != "render") {
+        restart_with_huge_pages(argv);
+        sspc::keep_freed_memory();
+      }
       const CLI::Option* json = command.app->get_option_no_throw("--json");
       if (json != nullptr && json->count() > 0)
         report_errors_as_json(command.app->get_name(), files_named(*command.app));
