@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <unordered_map>
 
 #include "core/parallel.hpp"
 #include "encoder/spatial_order.hpp"
@@ -17,10 +16,14 @@ namespace sspc::codec {
 namespace {
 
 // A hash grid of cell 2R over the centres chosen so far: the ball of radius R about any point
-// meets at most 2×2×2 cells, the ones on the point's side of its cell's middle.
+// meets at most 2x2x2 cells, the ones on the point's side of its cell's middle. Asked eight
+// times for every input point, one after another (the Poisson-disk start is sequential), so it
+// is a flat table with linear probing and each cell's centres a linked list through one array:
+// autzen's start took 3.3 s with std::unordered_map's node per cell and vector per node.
 class CentreGrid {
  public:
-  CentreGrid(float radius, const Vec3f& origin) : radius_(radius), cell_(2 * radius), origin_(origin) {}
+  CentreGrid(float radius, const Vec3f& origin)
+      : radius_(radius), cell_(2 * radius), origin_(origin), slots_(1024, kNone) {}
 
   bool covered(const Vec3f& p) const {
     const float r2 = radius_ * radius_;
@@ -33,30 +36,68 @@ class CentreGrid {
     for (int dx = 0; dx < 2; ++dx)
       for (int dy = 0; dy < 2; ++dy)
         for (int dz = 0; dz < 2; ++dz) {
-          const auto it = cells_.find(key(base.x() + dx, base.y() + dy, base.z() + dz));
-          if (it == cells_.end()) continue;
-          for (const Vec3f& c : it->second) {
-            if ((c - p).squaredNorm() <= r2) return true;
+          const std::uint32_t cell = find(key(base.x() + dx, base.y() + dy, base.z() + dz));
+          if (cell == kNone) continue;
+          for (std::uint32_t c = head_[cell]; c != kNone; c = next_[c]) {
+            if ((centres_[c] - p).squaredNorm() <= r2) return true;
           }
         }
     return false;
   }
 
   void add(const Vec3f& p) {
-    Eigen::Vector3i cell;
-    for (int a = 0; a < 3; ++a) cell[a] = static_cast<int>(std::floor((p[a] - origin_[a]) / cell_));
-    cells_[key(cell.x(), cell.y(), cell.z())].push_back(p);
+    Eigen::Vector3i at;
+    for (int a = 0; a < 3; ++a) at[a] = static_cast<int>(std::floor((p[a] - origin_[a]) / cell_));
+    const std::uint64_t k = key(at.x(), at.y(), at.z());
+    std::uint32_t cell = find(k);
+    if (cell == kNone) {
+      if (2 * (keys_.size() + 1) > slots_.size()) grow();
+      cell = static_cast<std::uint32_t>(keys_.size());
+      keys_.push_back(k);
+      head_.push_back(kNone);
+      insert(cell);
+    }
+    next_.push_back(head_[cell]);
+    head_[cell] = static_cast<std::uint32_t>(centres_.size());
+    centres_.push_back(p);
   }
 
  private:
+  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
   static std::uint64_t key(int x, int y, int z) {
     const auto u = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1FFFFFu); };
     return (u(x) << 42) | (u(y) << 21) | u(z);
   }
+  std::size_t slot_of(std::uint64_t k) const {
+    k ^= k >> 29;
+    k *= 0xBF58476D1CE4E5B9ull;
+    return static_cast<std::size_t>(k ^ (k >> 32)) & (slots_.size() - 1);
+  }
+  std::uint32_t find(std::uint64_t k) const {
+    for (std::size_t s = slot_of(k);; s = (s + 1) & (slots_.size() - 1)) {
+      const std::uint32_t cell = slots_[s];
+      if (cell == kNone || keys_[cell] == k) return cell;
+    }
+  }
+  void insert(std::uint32_t cell) {
+    std::size_t s = slot_of(keys_[cell]);
+    while (slots_[s] != kNone) s = (s + 1) & (slots_.size() - 1);
+    slots_[s] = cell;
+  }
+  void grow() {
+    slots_.assign(2 * slots_.size(), kNone);
+    for (std::uint32_t cell = 0; cell < keys_.size(); ++cell) insert(cell);
+  }
+
   float radius_;
   float cell_;
   Vec3f origin_;
-  std::unordered_map<std::uint64_t, std::vector<Vec3f>> cells_;
+  std::vector<std::uint32_t> slots_;  // a cell number, or kNone
+  std::vector<std::uint64_t> keys_;   // each cell's key
+  std::vector<std::uint32_t> head_;   // each cell's last centre added
+  std::vector<std::uint32_t> next_;   // each centre's predecessor in its cell
+  std::vector<Vec3f> centres_;
 };
 
 // The tangent plane of the nearest input point: keeps centres on the surface.
@@ -178,7 +219,9 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
   {
     CentreGrid grid(spread, origin);
     const std::vector<std::uint32_t> order = random_order(cloud.size(), options.seed);
+    constexpr std::size_t kAhead = 16;  // the points are visited at random: fetch ahead
     for (std::size_t i = 0; i < order.size(); ++i) {
+      if (i + kAhead < order.size()) __builtin_prefetch(cloud.positions.data() + order[i + kAhead]);
       const Vec3f& p = cloud.positions[order[i]];
       if (!grid.covered(p)) {
         grid.add(p);
