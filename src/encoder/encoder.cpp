@@ -18,6 +18,7 @@
 #include "encoder/encode_steps.hpp"
 #include "format/container_format.hpp"
 #include "format/quantise.hpp"
+#include "geometry/normals_steps.hpp"
 #include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 
@@ -250,9 +251,24 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   auto start = std::chrono::steady_clock::now();
   NormalOptions normal_options = options.normals;
   normal_options.progress = options.progress;
-  SSPC_RETURN_IF_ERROR(ensure_normals(cloud, normal_options));
+  // The normals' k-NN search gives the centres' feature strength too, when it was made and
+  // holds enough neighbours a point (autzen: the centres' step 7.4 -> 2.9 s); the table itself
+  // goes before the model is built. The strengths are allocated first, below the table on the
+  // heap: allocated after, they kept the freed table's pages from the later steps (autzen's
+  // peak 1.39 -> 1.73 GB).
+  std::vector<float> strength(cloud.size());
+  {
+    KnnTable searched;
+    SSPC_RETURN_IF_ERROR(detail::ensure_normals(cloud, normal_options, &searched));
+    if (searched.k > codec::kFeatureNeighbours && searched.count.size() == cloud.size()) {
+      codec::feature_strength(cloud, searched, strength);
+    } else {
+      strength = {};
+    }
+  }
   stats.seconds_normals = seconds_since(start);
-  const codec::BuildOptions build = build_options(options);
+  codec::BuildOptions build = build_options(options);
+  build.feature_strength = strength;
   codec::BuildStats build_stats;
   SSPC_ASSIGN_OR_RETURN(codec::EncodedModel model, codec::build_model(cloud, build, &build_stats));
   return write_model(cloud, std::move(model), build_stats, build, options, stats, output);

@@ -76,6 +76,7 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
     const KdTree3 core_tree(core.positions);
     centres = choose_patch_centres(core, core_tree, centre_options, &centre_stats);
   } else {
+    centre_options.strength = options.feature_strength;
     centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
   }
   const double seconds_centres = seconds_since(start);

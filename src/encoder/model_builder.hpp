@@ -31,6 +31,9 @@ struct BuildOptions {
   // The code words keep their points' normals (CodebookOptions::keep_normals): only when the
   // file stores them.
   bool codeword_normals = true;
+  // C_p of every point, when the normals' search gave it (CentreOptions::strength); not used
+  // with core_points, whose centres see only the core.
+  std::span<const float> feature_strength;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
 };

@@ -144,29 +144,32 @@ void repulse(std::vector<Vec3f>& centres, float radius, const PointCloud& cloud,
   centres = std::move(moved);
 }
 
+}  // namespace
+
 // C_p: how much the normals around p disagree; large on creases and ridges.
-std::vector<float> feature_strength(const PointCloud& cloud, const KdTree3& tree) {
-  constexpr std::size_t kNeighbours = 8;
-  const KnnTable knn = tree.knn_batch(cloud.positions, kNeighbours, true, nullptr, false);
-  std::vector<float> strength(cloud.size(), 0.0f);
+void feature_strength(const PointCloud& cloud, const KnnTable& neighbours, std::span<float> strength) {
   parallel_for(0, cloud.size(), 4096, [&](std::size_t p) {
-    const auto row = knn.row(p);
-    if (row.empty()) return;
+    strength[p] = 0.0f;
     double sum = 0, sum2 = 0;
-    for (std::uint32_t q : row) {
+    std::size_t n = 0;
+    for (const std::uint32_t q : neighbours.row(p)) {
+      if (q == p) continue;
       const auto d = static_cast<double>(cloud.normals[p].dot(cloud.normals[q]));
       sum += d;
       sum2 += d * d;
+      if (++n == kFeatureNeighbours) break;
     }
-    const double n = static_cast<double>(row.size());
-    const double mean = sum / n;
-    strength[p] = static_cast<float>(std::sqrt(std::max(0.0, sum2 / n - mean * mean)));
+    if (n == 0) return;
+    const auto count = static_cast<double>(n);
+    const double mean = sum / count;
+    strength[p] = static_cast<float>(std::sqrt(std::max(0.0, sum2 / count - mean * mean)));
   });
-  return strength;
 }
 
+namespace {
+
 void attract(std::vector<Vec3f>& centres, float radius, const PointCloud& cloud, const KdTree3& tree,
-             const std::vector<float>& strength) {
+             std::span<const float> strength) {
   std::vector<Vec3f> moved(centres.size());
   parallel_for_ranges(0, centres.size(), 64, [&](std::size_t begin, std::size_t end) {
     std::vector<Neighbour> near;
@@ -238,8 +241,13 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
   // Counted in centres moved (each round moves every centre), so that the rate means something.
   progress_begin(progress, "centres: repulsion and feature attraction",
                  static_cast<std::uint64_t>(rounds) * centres.size(), "centres");
-  std::vector<float> strength;
-  if (options.attraction_rounds > 0) strength = feature_strength(cloud, points_tree);
+  std::vector<float> searched;
+  std::span<const float> strength = options.strength;
+  if (options.attraction_rounds > 0 && strength.size() != cloud.size()) {
+    searched.resize(cloud.size());
+    feature_strength(cloud, points_tree.knn_batch(cloud.positions, kFeatureNeighbours, true, nullptr, false), searched);
+    strength = searched;
+  }
   for (int round = 0; round < rounds; ++round) {
     if (round < options.repulsion_rounds) repulse(centres, spread, cloud, points_tree);
     if (round < options.attraction_rounds) attract(centres, radius, cloud, points_tree, strength);

@@ -35,6 +35,9 @@ struct CentreOptions {
   int attraction_rounds = 1;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
+  // C_p of every point when the caller has it (feature_strength from the normals' own k-NN
+  // table); empty: searched here.
+  std::span<const float> strength;
 };
 
 struct CentreStats {
@@ -47,6 +50,15 @@ struct CentreStats {
 // in a spatial (Morton) order. Requires coverage_radius > 0.
 std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& points_tree,
                                         const CentreOptions& options, CentreStats* stats);
+
+// C_p for every point (the attraction's weight): the standard deviation of n_p.n_q over p's
+// kFeatureNeighbours nearest other points q, taken from `neighbours`, a table of the cloud's own
+// points whose rows hold at least kFeatureNeighbours + 1 (the point itself may be among them,
+// and is passed over): the normals' search serves, and gives what choose_patch_centres would
+// search for itself, bit for bit.
+constexpr std::size_t kFeatureNeighbours = 8;
+// Written to `strength` (one a point).
+void feature_strength(const PointCloud& cloud, const KnnTable& neighbours, std::span<float> strength);
 
 // Every point's distance to its nearest centre, maximum: for tests and statistics.
 double max_distance_to_centres(std::span<const Vec3f> points, std::span<const Vec3f> centres);

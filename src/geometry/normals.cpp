@@ -82,6 +82,10 @@ Status orient_normals(PointCloud& cloud, const NormalOptions& options) {
 }
 
 Status ensure_normals(PointCloud& cloud, const NormalOptions& options) {
+  return detail::ensure_normals(cloud, options, nullptr);
+}
+
+Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched) {
   switch (options.mode) {
     case NormalMode::kKeep:
       if (!cloud.has_normals()) {
@@ -97,13 +101,14 @@ Status ensure_normals(PointCloud& cloud, const NormalOptions& options) {
   }
   if (Status s = check_options(cloud, options); !s.ok()) return s;
   // One k-NN search serves both steps.
-  const KnnTable table = neighbourhoods(cloud, options);
+  KnnTable table = neighbourhoods(cloud, options);
   run_pca(cloud, table, options.progress);
   if (options.viewpoint) {
     detail::orient_normals_towards(cloud.positions, *options.viewpoint, cloud.normals);
   } else {
     run_mst(cloud, table, options.progress);
   }
+  if (searched != nullptr) *searched = std::move(table);
   return {};
 }
 

@@ -5,10 +5,15 @@
 #include <span>
 
 #include "sspc/neighbours.hpp"
+#include "sspc/normals.hpp"
 #include "sspc/point_cloud.hpp"
 #include "sspc/progress.hpp"
 
 namespace sspc::detail {
+
+// ensure_normals (sspc/normals.hpp), handing the k-NN table it searched to `searched` (left
+// empty when the cloud's own normals were kept): the encoder takes its feature strength from it.
+Status ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched);
 
 // Unit normals by PCA over each point's row of `neighbours` (the point itself included): the
 // eigenvector of the smallest eigenvalue of the neighbourhood's covariance. Parallel; each

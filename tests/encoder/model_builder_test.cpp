@@ -2,11 +2,16 @@
 // self-similar surface collapsing to a small code book whose instances reproduce it.
 #include "encoder/model_builder.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "encoder/patch_centres.hpp"
+#include "geometry/normals_steps.hpp"
 #include "sspc/metrics.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
 namespace sspc::codec {
@@ -92,6 +97,40 @@ TEST(ModelBuilder, DeterministicAcrossRuns) {
     EXPECT_EQ(a.patches[k].codeword, b.patches[k].codeword);
     EXPECT_EQ(a.patches[k].world_from_codeword.rotation, b.patches[k].world_from_codeword.rotation);
     EXPECT_EQ(a.patches[k].world_from_codeword.translation, b.patches[k].world_from_codeword.translation);
+  }
+}
+
+// The encoder takes the centres' feature strength from the normals' own k-NN table (16 a point,
+// itself included) instead of searching again: it must be what the centres would have searched
+// for (8 others a point), also where points coincide and a point is not in its own row.
+TEST(ModelBuilder, FeatureStrengthFromTheNormalsSearchIsTheCentresOwn) {
+  PointCloud cloud = synthetic::torus(3000, 1.0, 0.3);
+  cloud.normals.clear();
+  for (std::uint32_t i = 0; i < 200; ++i) cloud.positions.push_back(cloud.positions[i]);
+  for (int i = 0; i < 20; ++i) cloud.positions.push_back(cloud.positions[7]);  // 22 at one place
+  NormalOptions options;
+  options.mode = NormalMode::kEstimate;
+  KnnTable searched;
+  ASSERT_TRUE(detail::ensure_normals(cloud, options, &searched).ok());
+  ASSERT_EQ(searched.k, 16u);
+  ASSERT_EQ(searched.count.size(), cloud.size());
+
+  std::vector<float> from_normals(cloud.size(), -1.0f), own(cloud.size(), -1.0f);
+  feature_strength(cloud, searched, from_normals);
+  const KnnTable eight = KdTree3(cloud.positions).knn_batch(cloud.positions, kFeatureNeighbours, true, nullptr, false);
+  feature_strength(cloud, eight, own);
+  EXPECT_EQ(from_normals, own);
+  EXPECT_GT(*std::max_element(own.begin(), own.end()), 0.01f);  // the torus's normals do differ
+
+  // And the model built with it is the model built without.
+  BuildOptions with = options_for_level(kDefaultLevel);
+  with.feature_strength = from_normals;
+  auto a = build_model(cloud, with, nullptr);
+  auto b = build_model(cloud, options_for_level(kDefaultLevel), nullptr);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->patches.size(), b->patches.size());
+  for (std::size_t k = 0; k < a->patches.size(); ++k) {
+    EXPECT_EQ(a->patches[k].world_from_codeword.translation, b->patches[k].world_from_codeword.translation);
   }
 }
 
