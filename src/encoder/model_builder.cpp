@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include "core/parallel.hpp"
 #include "core/stopwatch.hpp"
@@ -52,7 +53,9 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
 }
 
 StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
-  const KdTree3 tree(cloud.positions);
+  std::optional<KdTree3> own_tree;
+  if (options.points_tree == nullptr) own_tree.emplace(cloud.positions);
+  const KdTree3& tree = options.points_tree != nullptr ? *options.points_tree : *own_tree;
   // Of the distinct positions: a radius of 0 would divide by zero downstream.
   const double spacing = options.spacing > 0 ? options.spacing : nominal_spacing(tree);
   SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));

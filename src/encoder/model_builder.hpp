@@ -34,6 +34,8 @@ struct BuildOptions {
   // C_p of every point, when the normals' search gave it (CentreOptions::strength); not used
   // with core_points, whose centres see only the core.
   std::span<const float> feature_strength;
+  // A tree over the cloud's positions the caller built already (for the normals), or null.
+  const KdTree3* points_tree = nullptr;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
 };

@@ -89,11 +89,13 @@ bool fill_row(const DistinctPositions& distinct, std::size_t k, std::span<const 
 
 }  // namespace
 
-KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress, bool distances) {
+KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress, bool distances,
+                           const KdTree3* tree) {
   // A tree over the points visits all c points at a position for each of them: c² for the
   // position, harmless while c is about k or less (the search itself costs k per point).
   const DistinctPositions distinct(points, std::max<std::size_t>(2 * k, 32));
   if (!distinct.gathered()) {
+    if (tree != nullptr) return tree->knn_batch(points, k, false, progress, distances);
     return KdTree3(points).knn_batch(points, k, false, progress, distances);
   }
 
@@ -104,12 +106,12 @@ KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progres
   table.count.assign(points.size(), 0);
   if (k == 0) return table;
   const std::span<const Vec3f> positions = distinct.positions();
-  const KdTree3 tree(positions);
+  const KdTree3 position_tree(positions);
   const std::size_t n = positions.size();
   // The k nearest positions of every position settle almost every row (the batch walks the
   // tree in leaf order); a row that coincident points or ties leave open asks for more.
   const std::size_t first_ask = std::min(k, n);
-  const KnnTable nearest = tree.knn_batch(positions, first_ask);
+  const KnnTable nearest = position_tree.knn_batch(positions, first_ask);
   parallel_for_ranges(0, n, 256, [&](std::size_t begin, std::size_t end) {
     std::vector<std::uint32_t> idx;
     std::vector<float> d2;
@@ -119,7 +121,7 @@ KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progres
       for (std::size_t ask = std::min(2 * first_ask, n); !done; ask = std::min(2 * ask, n)) {
         idx.resize(ask);
         d2.resize(ask);
-        const std::size_t found = tree.knn(positions[u], ask, idx.data(), d2.data());
+        const std::size_t found = position_tree.knn(positions[u], ask, idx.data(), d2.data());
         done = fill_row(distinct, k, std::span(idx.data(), found), std::span(d2.data(), found), found == n, row);
       }
       const std::span<const std::uint32_t> at_u = distinct.members(u);

@@ -44,8 +44,9 @@ class DistinctPositions {
 // The k nearest of every point among the cloud's own points (itself included), exactly as
 // KdTree3(points).knn_batch(points, k) answers: ties by lower index. Over the distinct positions
 // when points coincide. Advances `progress` by one per point. Without `distances`, the table
-// holds none (KdTree3::knn_batch).
+// holds none (KdTree3::knn_batch). `tree`, when given, indexes `points` and is searched where
+// no position needs gathering, instead of a tree built here.
 KnnTable knn_of_own_points(std::span<const Vec3f> points, std::size_t k, Progress* progress,
-                           bool distances = true);
+                           bool distances = true, const KdTree3* tree = nullptr);
 
 }  // namespace sspc

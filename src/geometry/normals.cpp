@@ -36,11 +36,11 @@ Status check_options(const PointCloud& cloud, const NormalOptions& options) {
 
 // Each point's k nearest neighbours, itself included (it is part of its own neighbourhood for
 // the PCA, and its self-edge is harmless to the spanning tree).
-KnnTable neighbourhoods(const PointCloud& cloud, const NormalOptions& options) {
+KnnTable neighbourhoods(const PointCloud& cloud, const NormalOptions& options, const KdTree3* tree = nullptr) {
   progress_begin(options.progress, "normals: neighbours", cloud.size());
   const std::size_t k = std::min(static_cast<std::size_t>(options.k), cloud.size());
   // Indices only: PCA and the orientation need no distances (10.6M points: 0.68 of 1.4 GB).
-  KnnTable table = knn_of_own_points(cloud.positions, k, options.progress, false);
+  KnnTable table = knn_of_own_points(cloud.positions, k, options.progress, false, tree);
   progress_end(options.progress);
   return table;
 }
@@ -82,10 +82,11 @@ Status orient_normals(PointCloud& cloud, const NormalOptions& options) {
 }
 
 Status ensure_normals(PointCloud& cloud, const NormalOptions& options) {
-  return detail::ensure_normals(cloud, options, nullptr);
+  return detail::ensure_normals(cloud, options, nullptr, nullptr);
 }
 
-Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched) {
+Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched,
+                              const KdTree3* tree) {
   switch (options.mode) {
     case NormalMode::kKeep:
       if (!cloud.has_normals()) {
@@ -101,7 +102,7 @@ Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, K
   }
   if (Status s = check_options(cloud, options); !s.ok()) return s;
   // One k-NN search serves both steps.
-  KnnTable table = neighbourhoods(cloud, options);
+  KnnTable table = neighbourhoods(cloud, options, tree);
   run_pca(cloud, table, options.progress);
   if (options.viewpoint) {
     detail::orient_normals_towards(cloud.positions, *options.viewpoint, cloud.normals);

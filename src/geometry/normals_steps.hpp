@@ -13,7 +13,10 @@ namespace sspc::detail {
 
 // ensure_normals (sspc/normals.hpp), handing the k-NN table it searched to `searched` (left
 // empty when the cloud's own normals were kept): the encoder takes its feature strength from it.
-Status ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched);
+// `tree`, when given, indexes cloud.positions and is searched instead of a tree built here (the
+// encoder's, which it needs afterwards too).
+Status ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched,
+                      const KdTree3* tree = nullptr);
 
 // Unit normals by PCA over each point's row of `neighbours` (the point itself included): the
 // eigenvector of the smallest eigenvalue of the neighbourhood's covariance. Parallel; each
