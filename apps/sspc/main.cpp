@@ -137,6 +137,8 @@ int main(int argc, char** argv) {
       if (command.app->get_name() != "render") {
         restart_with_huge_pages(argv);
         sspc::keep_freed_memory();
+      } else {
+        sspc::use_one_arena();  // the budget held, not one in each thread's arena
       }
       const CLI::Option* json = command.app->get_option_no_throw("--json");
       if (json != nullptr && json->count() > 0)

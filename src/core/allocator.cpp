@@ -41,4 +41,10 @@ bool release_freed_memory() {
 #endif
 }
 
+void use_one_arena() {
+#if defined(__GLIBC__)
+  mallopt(M_ARENA_MAX, 1);
+#endif
+}
+
 }  // namespace sspc

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
+#include <vector>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -50,6 +53,46 @@ TEST(Allocator, ReleaseGivesBackFreedMemoryBelowABlockInUse) {
   EXPECT_TRUE(release_freed_memory());
   EXPECT_LT(resident_bytes() + kBlock / 2, kept);
   std::free(above);
+#endif
+}
+
+// After use_one_arena, memory one thread frees is reused by another: small blocks the main
+// thread freed (and the allocator kept) take no new pages when a worker, which allocated before,
+// allocates as many again. With an arena a thread, the worker's own arena grows by all of them.
+TEST(Allocator, OneArenaReusesWhatAnotherThreadFreed) {
+#if !defined(__GLIBC__) || !defined(__linux__) || defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "glibc's own allocator on Linux only (a sanitizer replaces it)";
+#else
+  keep_freed_memory();
+  use_one_arena();
+  constexpr std::size_t kBlocks = 32768, kSize = 1024;  // 32 MiB in blocks under the mmap threshold
+  const auto allocate = [] {
+    std::vector<void*> blocks(kBlocks);
+    for (void*& b : blocks) {
+      b = std::malloc(kSize);
+      std::memset(b, 1, kSize);
+    }
+    asm volatile("" : : "r"(blocks.data()) : "memory");
+    return blocks;
+  };
+  std::atomic<int> step{0};
+  std::size_t grown = 0;
+  std::thread worker([&] {
+    void* first = std::malloc(64);  // the worker takes its arena now, while the main thread has one
+    asm volatile("" : : "r"(first) : "memory");
+    step = 1;
+    while (step.load() != 2) std::this_thread::yield();
+    const std::size_t before = resident_bytes();
+    const std::vector<void*> blocks = allocate();
+    grown = resident_bytes() - before;
+    for (void* b : blocks) std::free(b);
+    std::free(first);
+  });
+  while (step.load() != 1) std::this_thread::yield();
+  for (void* b : allocate()) std::free(b);  // on the main thread, kept by the allocator
+  step = 2;
+  worker.join();
+  EXPECT_LT(grown, kBlocks * kSize / 4);
 #endif
 }
 
