@@ -32,6 +32,7 @@ from ._sspc import (
     resident_bytes,
     run_tile_job,
     synthetic,
+    use_one_arena,
     write,
     write_png,
 )
@@ -52,6 +53,7 @@ __all__ = [
     "resident_bytes",
     "run_tile_job",
     "synthetic",
+    "use_one_arena",
     "write",
     "write_png",
 ]
