@@ -276,7 +276,6 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
   if (stats != nullptr) {
     stats->initial = initial;
     stats->repaired = repaired;
-    stats->max_distance = max_distance_to_centres(cloud.positions, centres);
   }
   return centres;
 }

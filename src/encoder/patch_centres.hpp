@@ -43,7 +43,6 @@ struct CentreOptions {
 struct CentreStats {
   std::size_t initial = 0;   // Poisson-disk centres
   std::size_t repaired = 0;  // added by the coverage repair
-  double max_distance = 0;   // largest distance from a point to its nearest centre (≤ R)
 };
 
 // `points_tree` indexes `cloud.positions`; `cloud` must have unit normals. The centres come back
