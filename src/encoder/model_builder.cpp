@@ -52,16 +52,33 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
   return static_cast<float>(std::min(radius, static_cast<double>(bounding_box_diagonal(cloud))));
 }
 
+StatusOr<ModelGeometry> model_geometry(const PointCloud& cloud, const KdTree3& tree, const BuildOptions& options) {
+  ModelGeometry geometry;
+  // Of the distinct positions: a radius of 0 would divide by zero downstream.
+  geometry.spacing = options.spacing > 0 ? options.spacing : nominal_spacing(tree);
+  SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, geometry.spacing));
+  geometry.patch_radius = options.patch_radius > 0
+                              ? options.patch_radius
+                              : radius_for_patch_points(cloud, tree, geometry.spacing, options.level.patch_points);
+  if (options.core_points == 0 || options.core_points >= cloud.size()) {
+    const CentreOptions centre_options;
+    geometry.start = poisson_disk_start(cloud.positions, geometry.patch_radius / kPatchOverCoverage * centre_options.spread,
+                                        options.seed, nullptr);
+  }
+  return geometry;
+}
+
 StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats) {
   std::optional<KdTree3> own_tree;
   if (options.points_tree == nullptr) own_tree.emplace(cloud.positions);
   const KdTree3& tree = options.points_tree != nullptr ? *options.points_tree : *own_tree;
-  // Of the distinct positions: a radius of 0 would divide by zero downstream.
-  const double spacing = options.spacing > 0 ? options.spacing : nominal_spacing(tree);
-  SSPC_RETURN_IF_ERROR(check_geometry_range(cloud.positions, spacing));
-  const float patch_radius = options.patch_radius > 0
-                                 ? options.patch_radius
-                                 : radius_for_patch_points(cloud, tree, spacing, options.level.patch_points);
+  std::optional<ModelGeometry> own_geometry;
+  if (options.geometry == nullptr) {
+    SSPC_ASSIGN_OR_RETURN(own_geometry, model_geometry(cloud, tree, options));
+  }
+  const ModelGeometry& geometry = options.geometry != nullptr ? *options.geometry : *own_geometry;
+  const double spacing = geometry.spacing;
+  const float patch_radius = geometry.patch_radius;
   const float coverage_radius = patch_radius / kPatchOverCoverage;
 
   auto start = std::chrono::steady_clock::now();
@@ -80,6 +97,7 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
     centres = choose_patch_centres(core, core_tree, centre_options, &centre_stats);
   } else {
     centre_options.strength = options.feature_strength;
+    centre_options.start = geometry.start;
     centres = choose_patch_centres(cloud, tree, centre_options, &centre_stats);
   }
   const double seconds_centres = seconds_since(start);

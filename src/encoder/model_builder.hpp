@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "encoder/codebook_builder.hpp"
 #include "encoder/levels.hpp"
@@ -20,6 +21,16 @@ namespace sspc::codec {
 // radius), and the writer trims what no instance decodes.
 inline constexpr float kPatchOverCoverage = 1.25f;
 
+// What build_model derives from the positions alone, before it needs any normal: the spacing,
+// the patch radius, and the centres' Poisson-disk start (CentreOptions::start). The encoder
+// derives it on one core while the other orients the normals (model_geometry), build_model
+// when it is not given.
+struct ModelGeometry {
+  double spacing = 0;
+  float patch_radius = 0;
+  std::vector<Vec3f> start;  // empty with core_points: the centres are the core's own
+};
+
 struct BuildOptions {
   LevelParams level;
   // A tile of a tiled encode (encoder/tiling.hpp): the whole model's spacing and patch radius
@@ -36,6 +47,8 @@ struct BuildOptions {
   std::span<const float> feature_strength;
   // A tree over the cloud's positions the caller built already (for the normals), or null.
   const KdTree3* points_tree = nullptr;
+  // model_geometry(cloud, tree, these options)'s result, derived already, or null.
+  const ModelGeometry* geometry = nullptr;
   std::uint64_t seed = 1;
   Progress* progress = nullptr;
 };
@@ -49,6 +62,9 @@ struct BuildStats {
   double seconds_centres = 0;
   double seconds_codebook = 0;
 };
+
+// Reads cloud.positions only (not the normals): it may run while they are being written.
+StatusOr<ModelGeometry> model_geometry(const PointCloud& cloud, const KdTree3& tree, const BuildOptions& options);
 
 // `cloud` must have unit normals and at least 2 distinct points.
 StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& options, BuildStats* stats);

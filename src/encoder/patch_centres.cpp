@@ -209,6 +209,28 @@ double max_distance_to_centres(std::span<const Vec3f> points, std::span<const Ve
   return static_cast<double>(*std::max_element(d.begin(), d.end()));
 }
 
+std::vector<Vec3f> poisson_disk_start(std::span<const Vec3f> positions, float spread, std::uint64_t seed,
+                                      Progress* progress) {
+  std::vector<Vec3f> centres;
+  if (positions.empty()) return centres;
+  Box3f box;  // as PointCloud::bounding_box
+  for (const Vec3f& p : positions) box.extend(p);
+  CentreGrid grid(spread, box.min());
+  const std::vector<std::uint32_t> order = random_order(positions.size(), seed);
+  constexpr std::size_t kAhead = 16;  // the points are visited at random: fetch ahead
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    if (i + kAhead < order.size()) __builtin_prefetch(positions.data() + order[i + kAhead]);
+    const Vec3f& p = positions[order[i]];
+    if (!grid.covered(p)) {
+      grid.add(p);
+      centres.push_back(p);
+    }
+    if ((i & 0xFFFF) == 0xFFFF) progress_advance(progress, 0x10000);
+  }
+  progress_advance(progress, order.size() & 0xFFFF);  // the last, partial chunk
+  return centres;
+}
+
 std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& points_tree,
                                         const CentreOptions& options, CentreStats* stats) {
   const float radius = options.coverage_radius;
@@ -219,20 +241,11 @@ std::vector<Vec3f> choose_patch_centres(const PointCloud& cloud, const KdTree3& 
   const Vec3f origin = cloud.bounding_box().min();
 
   progress_begin(progress, "centres: Poisson-disk start", cloud.size(), "points");
-  {
-    CentreGrid grid(spread, origin);
-    const std::vector<std::uint32_t> order = random_order(cloud.size(), options.seed);
-    constexpr std::size_t kAhead = 16;  // the points are visited at random: fetch ahead
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      if (i + kAhead < order.size()) __builtin_prefetch(cloud.positions.data() + order[i + kAhead]);
-      const Vec3f& p = cloud.positions[order[i]];
-      if (!grid.covered(p)) {
-        grid.add(p);
-        centres.push_back(p);
-      }
-      if ((i & 0xFFFF) == 0xFFFF) progress_advance(progress, 0x10000);
-    }
-    progress_advance(progress, order.size() & 0xFFFF);  // the last, partial chunk
+  if (options.start.empty()) {
+    centres = poisson_disk_start(cloud.positions, spread, options.seed, progress);
+  } else {
+    centres.assign(options.start.begin(), options.start.end());
+    progress_advance(progress, cloud.size());
   }
   progress_end(progress);
   const std::size_t initial = centres.size();

@@ -38,12 +38,20 @@ struct CentreOptions {
   // C_p of every point when the caller has it (feature_strength from the normals' own k-NN
   // table); empty: searched here.
   std::span<const float> strength;
+  // Step 1's centres when the caller has them (poisson_disk_start with coverage_radius · spread
+  // and this seed); empty: drawn here.
+  std::span<const Vec3f> start;
 };
 
 struct CentreStats {
   std::size_t initial = 0;   // Poisson-disk centres
   std::size_t repaired = 0;  // added by the coverage repair
 };
+
+// Step 1 alone: a point becomes a centre unless one is already within `spread` (the points in
+// a random order from `seed`). Positions only; advances `progress` by one a point.
+std::vector<Vec3f> poisson_disk_start(std::span<const Vec3f> positions, float spread, std::uint64_t seed,
+                                      Progress* progress);
 
 // `points_tree` indexes `cloud.positions`; `cloud` must have unit normals. The centres come back
 // in a spatial (Morton) order. Requires coverage_radius > 0.

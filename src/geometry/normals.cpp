@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <string>
 
+#include "core/parallel.hpp"
 #include "geometry/distinct_positions.hpp"
 #include "geometry/normals_steps.hpp"
 #include "sspc/neighbours.hpp"
@@ -86,7 +87,11 @@ Status ensure_normals(PointCloud& cloud, const NormalOptions& options) {
 }
 
 Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched,
-                              const KdTree3* tree) {
+                              const KdTree3* tree, const std::function<void()>& alongside) {
+  const auto then_alongside = [&]() -> Status {
+    if (alongside) alongside();
+    return {};
+  };
   switch (options.mode) {
     case NormalMode::kKeep:
       if (!cloud.has_normals()) {
@@ -94,9 +99,9 @@ Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, K
             "normals: mode 'keep' needs normals in the input, and this cloud has none "
             "(use 'estimate' or 'auto' to compute them)");
       }
-      return {};
+      return then_alongside();
     case NormalMode::kAuto:
-      if (cloud.has_normals()) return {};
+      if (cloud.has_normals()) return then_alongside();
       break;
     case NormalMode::kEstimate: break;
   }
@@ -106,6 +111,10 @@ Status detail::ensure_normals(PointCloud& cloud, const NormalOptions& options, K
   run_pca(cloud, table, options.progress);
   if (options.viewpoint) {
     detail::orient_normals_towards(cloud.positions, *options.viewpoint, cloud.normals);
+    if (alongside) alongside();  // after: the viewpoint's orientation is parallel already
+  } else if (alongside) {
+    // Prim's algorithm is sequential: the other core takes `alongside` meanwhile.
+    parallel_invoke([&] { run_mst(cloud, table, options.progress); }, alongside);
   } else {
     run_mst(cloud, table, options.progress);
   }

@@ -2,6 +2,7 @@
 // hand the same table to the PCA and to the orientation, and so that benchmarks can time each.
 #pragma once
 
+#include <functional>
 #include <span>
 
 #include "sspc/neighbours.hpp"
@@ -14,9 +15,11 @@ namespace sspc::detail {
 // ensure_normals (sspc/normals.hpp), handing the k-NN table it searched to `searched` (left
 // empty when the cloud's own normals were kept): the encoder takes its feature strength from it.
 // `tree`, when given, indexes cloud.positions and is searched instead of a tree built here (the
-// encoder's, which it needs afterwards too).
+// encoder's, which it needs afterwards too). `alongside`, when given, runs once on every path
+// that succeeds: beside the orientation (which runs on one core) where there is one, else at
+// the end; it must not touch cloud.normals.
 Status ensure_normals(PointCloud& cloud, const NormalOptions& options, KnnTable* searched,
-                      const KdTree3* tree = nullptr);
+                      const KdTree3* tree = nullptr, const std::function<void()>& alongside = {});
 
 // Unit normals by PCA over each point's row of `neighbours` (the point itself included): the
 // eigenvector of the smallest eigenvalue of the neighbourhood's covariance. Parallel; each

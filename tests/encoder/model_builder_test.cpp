@@ -133,5 +133,35 @@ TEST(ModelBuilder, FeatureStrengthFromTheNormalsSearchIsTheCentresOwn) {
   }
 }
 
+// The encoder derives the spacing, patch radius and Poisson-disk start ahead (model_geometry,
+// while the normals are oriented); given to build_model, they must build the model it builds
+// alone, and the start must be the centres' own step 1.
+TEST(ModelBuilder, GeometryDerivedAheadBuildsTheSameModel) {
+  const PointCloud cloud = synthetic::torus(20000, 1.0, 0.3);
+  BuildOptions options = options_for_level(kDefaultLevel);
+  const KdTree3 tree(cloud.positions);
+  auto geometry = model_geometry(cloud, tree, options);
+  ASSERT_TRUE(geometry.ok()) << geometry.status().to_string();
+  EXPECT_GT(geometry->spacing, 0.0);
+  EXPECT_GT(geometry->patch_radius, 0.0f);
+  ASSERT_FALSE(geometry->start.empty());
+  BuildStats alone_stats;
+  auto alone = build_model(cloud, options, &alone_stats);
+  options.geometry = &*geometry;
+  options.points_tree = &tree;
+  BuildStats ahead_stats;
+  auto ahead = build_model(cloud, options, &ahead_stats);
+  ASSERT_TRUE(alone.ok() && ahead.ok());
+  EXPECT_EQ(alone_stats.spacing, ahead_stats.spacing);
+  EXPECT_EQ(alone_stats.patch_radius, ahead_stats.patch_radius);
+  EXPECT_EQ(alone_stats.centres.initial, geometry->start.size());
+  EXPECT_EQ(ahead_stats.centres.initial, geometry->start.size());
+  ASSERT_EQ(alone->patches.size(), ahead->patches.size());
+  for (std::size_t k = 0; k < alone->patches.size(); ++k) {
+    EXPECT_EQ(alone->patches[k].world_from_codeword.translation, ahead->patches[k].world_from_codeword.translation);
+    EXPECT_EQ(alone->patches[k].codeword, ahead->patches[k].codeword);
+  }
+}
+
 }  // namespace
 }  // namespace sspc::codec
