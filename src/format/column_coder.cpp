@@ -18,102 +18,201 @@ using Point = std::array<std::uint32_t, 3>;
 
 // The occupancy template (docs/FORMAT.md, "The columns"): context bit k is the cell at (row
 // offset, column offset) (0,−1), (0,−2), (−1,−1), (−1,0), (−1,1), (−2,0), (−1,−2), (−1,2), (−2,−1),
-// (−2,1) for k = 0 … 9; rows above are negative.
+// (−2,1) for k = 0 … 9; rows above are negative. The walk keeps the same ten cells in three shift
+// registers instead (OccupancyWindow) and numbers the contexts by them: a different numbering of
+// the same 1024 contexts, which codes every bit with the same probability.
 
 // The window of columns a lowest height is predicted from: rows −3..0, columns −3..3, those
 // coded before it.
 constexpr int kWindowRows = 3;
 constexpr int kWindowColumns = 3;
+// Columns of padding on each side of a row's occupancy and lowest heights (at least the window's).
+constexpr std::int64_t kPad = 4;
 
-// floor(a / b) for b > 0.
-std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+// floor(a / b) and the remainder a − b·floor(a / b) ∈ [0, b), for b > 0 and |a|, b < 2^53: the
+// quotient of the doubles (each exact), truncated, is within two of the true one, and the
+// remainder corrects it (std::floor would be a call without SSE4.1). A prediction's 64-bit integer
+// divisions were a third of its time (perf, decode_bench).
+struct FloorDivision {
+  std::int64_t quotient, remainder;
+};
+FloorDivision floor_divide(std::int64_t a, std::int64_t b) {
+  auto q = static_cast<std::int64_t>(static_cast<double>(a) / static_cast<double>(b));
+  std::int64_t r = a - q * b;
+  while (r < 0) {
+    --q;
+    r += b;
+  }
+  while (r >= b) {
+    ++q;
+    r -= b;
+  }
+  return {q, r};
+}
 
 std::int64_t det3(std::int64_t a, std::int64_t b, std::int64_t c, std::int64_t d, std::int64_t e, std::int64_t f,
                   std::int64_t g, std::int64_t h, std::int64_t i) {
   return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
 }
 
-// A column's occupied cells in the window's rows above the current one (dy = −3..−1): their
-// count, Σdy, Σdy², Σz, Σdy·z and the least and greatest z (lo > hi when none).
-struct ColumnSums {
-  std::int64_t n = 0, sy = 0, syy = 0, sz = 0, syz = 0;
-  std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
-};
-
-// The last four rows of the rectangle: occupancy, lowest height, and whether a column holds more
-// than one point. Row r lives in slot r mod 4; columns are padded by 2 on each side. When a row
-// starts, each column's sums over the window's rows above it are taken once (padded by the
-// window's width on each side, zero there), so that a prediction adds seven columns' sums
-// instead of visiting up to 21 cells: the decoder spent 30% of a whole decode in the prediction.
+// The last four rows of the rectangle: occupancy, lowest height (0 where a column is empty), and
+// whether a column holds more than one point; row r lives in slot r mod 4, padded by kPad
+// columns on each side. When a row starts, each column's sums over the window's three rows above
+// it (count, Σdy, Σdy², Σz, Σdy·z, least and greatest z) are taken once, branch-free over
+// structure-of-arrays rows that the compiler vectorises, so that a prediction adds seven columns'
+// sums instead of visiting up to 21 cells. Every sum fits 32 bits: z < 2^16 and 21 cells at most.
+// On dragon_scans the old per-column structs with a branch per cell were a third of the walk.
 class Rows {
  public:
-  explicit Rows(std::uint32_t width) : width_(width), zeros_(width + 4, 0), sums_(width + 2 * kWindowColumns) {
-    for (auto& row : occupied_) row.assign(width + 4, 0);
-    for (auto& row : lowest_) row.assign(width, 0);
+  explicit Rows(std::uint32_t width)
+      : width_(width), padded_(static_cast<std::size_t>(width) + 2 * kPad), zero_occupied_(padded_, 0),
+        zero_lowest_(padded_, 0), zero_least_(padded_, kNone) {
+    for (auto& row : occupied_) row.assign(padded_, 0);
+    for (auto& row : lowest_) row.assign(padded_, 0);
+    for (auto& row : least_) row.assign(padded_, kNone);
     for (auto& row : stacked_) row.assign(width, 0);
+    for (auto* sums : {&n_, &sy_, &syy_, &sz_, &syz_, &hi_}) sums->assign(padded_, 0);
+    lo_.assign(padded_, kNone);
   }
   void start(std::int64_t row) {
     const std::size_t s = slot(row);
     std::fill(occupied_[s].begin(), occupied_[s].end(), 0);
+    std::fill(lowest_[s].begin(), lowest_[s].end(), 0);
+    std::fill(least_[s].begin(), least_[s].end(), kNone);
     std::fill(stacked_[s].begin(), stacked_[s].end(), 0);
-    std::fill(sums_.begin(), sums_.end(), ColumnSums{});
-    for (std::int64_t dy = -kWindowRows; dy < 0; ++dy) {
-      if (row + dy < 0) continue;
-      const std::uint8_t* occupied = occupied_row(row + dy) + 2;
-      const std::uint32_t* lowest = lowest_row(row + dy);
-      for (std::size_t c = 0; c < width_; ++c) {
-        if (occupied[c] == 0) continue;
-        ColumnSums& sum = sums_[c + kWindowColumns];
-        const std::uint32_t z = lowest[c];
-        const auto zi = static_cast<std::int64_t>(z);
-        ++sum.n;
-        sum.sy += dy;
-        sum.syy += dy * dy;
-        sum.sz += zi;
-        sum.syz += dy * zi;
-        sum.lo = std::min(sum.lo, z);
-        sum.hi = std::max(sum.hi, z);
-      }
-    }
+    column_sums(occupied_row(row - 1) - kPad, occupied_row(row - 2) - kPad, occupied_row(row - 3) - kPad,
+                lowest_row(row - 1) - kPad, lowest_row(row - 2) - kPad, lowest_row(row - 3) - kPad,
+                least_row(row - 1), least_row(row - 2), least_row(row - 3));
   }
-  // Column c's sums (c may lie up to the window's width outside the row).
-  const ColumnSums& sums(std::int64_t c) const { return sums_[static_cast<std::size_t>(c + kWindowColumns)]; }
   bool stacked(std::int64_t row, std::int64_t column) const {
     if (row < 0 || column < 0) return false;
     return stacked_[slot(row)][static_cast<std::size_t>(column)] != 0;
   }
   void set(std::int64_t row, std::int64_t column, std::uint32_t z) {
-    occupied_[slot(row)][static_cast<std::size_t>(column + 2)] = 1;
-    lowest_[slot(row)][static_cast<std::size_t>(column)] = z;
+    occupied_[slot(row)][static_cast<std::size_t>(column + kPad)] = 1;
+    lowest_[slot(row)][static_cast<std::size_t>(column + kPad)] = static_cast<std::int32_t>(z);
+    least_[slot(row)][static_cast<std::size_t>(column + kPad)] = static_cast<std::int32_t>(z);
   }
   void set_stacked(std::int64_t row, std::int64_t column) { stacked_[slot(row)][static_cast<std::size_t>(column)] = 1; }
-  std::int64_t width() const { return width_; }
-  // Row `row`'s occupancy from column −2 (all empty for a row before the first).
+  // Row `row`'s occupancy and lowest heights from column 0, readable from −kPad to width + kPad
+  // (all empty for a row before the first).
   const std::uint8_t* occupied_row(std::int64_t row) const {
-    return row < 0 ? zeros_.data() : occupied_[slot(row)].data();
+    return (row < 0 ? zero_occupied_.data() : occupied_[slot(row)].data()) + kPad;
   }
-  const std::uint32_t* lowest_row(std::int64_t row) const { return lowest_[slot(row)].data(); }
+  const std::int32_t* lowest_row(std::int64_t row) const {
+    return (row < 0 ? zero_lowest_.data() : lowest_[slot(row)].data()) + kPad;
+  }
+
+  // The window's sums for column c: the rows above from the column sums, then the current row's
+  // columns c − 3 … c − 1 (empty ones add nothing, their lowest height being 0).
+  struct Window {
+    std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
+    std::uint32_t lo = 0, hi = 0;  // lo > hi when n = 0
+  };
+  Window window(std::int64_t row, std::int64_t c) const {
+    std::int32_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
+    std::int32_t lo = kNone, hi = 0;
+    const auto base = static_cast<std::size_t>(c + kPad - kWindowColumns);
+    for (std::int32_t i = 0; i <= 2 * kWindowColumns; ++i) {
+      const std::int32_t k = i - kWindowColumns;
+      const std::size_t j = base + static_cast<std::size_t>(i);
+      n += n_[j];
+      sx += k * n_[j];
+      sxx += k * k * n_[j];
+      sy += sy_[j];
+      syy += syy_[j];
+      sxy += k * sy_[j];
+      sz += sz_[j];
+      sxz += k * sz_[j];
+      syz += syz_[j];
+      lo = std::min(lo, lo_[j]);
+      hi = std::max(hi, hi_[j]);
+    }
+    const std::size_t here = static_cast<std::size_t>(c + kPad);
+    const std::uint8_t* occupied = occupied_[slot(row)].data() + here;
+    const std::int32_t* lowest = lowest_[slot(row)].data() + here;
+    const std::int32_t* least = least_[slot(row)].data() + here;
+    for (std::int32_t k = -kWindowColumns; k < 0; ++k) {
+      const std::int32_t o = occupied[k];
+      n += o;
+      sx += k * o;
+      sxx += k * k * o;
+      sz += lowest[k];
+      sxz += k * lowest[k];
+      lo = std::min(lo, least[k]);
+      hi = std::max(hi, lowest[k]);
+    }
+    return {n, sx, sy, sz, sxx, sxy, syy, sxz, syz, static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi)};
+  }
 
  private:
+  static constexpr std::int32_t kNone = 0x7FFFFFFF;
   static std::size_t slot(std::int64_t row) { return static_cast<std::size_t>(row & 3); }
+  // Row `row`'s lowest heights from column −kPad, kNone where a column is empty.
+  const std::int32_t* least_row(std::int64_t row) const {
+    return row < 0 ? zero_least_.data() : least_[slot(row)].data();
+  }
+  // Out of line: inlined into the walk, the loop lost its pointers' restrict and ran scalar.
+  [[gnu::noinline]] void column_sums(const std::uint8_t* __restrict o1, const std::uint8_t* __restrict o2,
+                   const std::uint8_t* __restrict o3, const std::int32_t* __restrict z1,
+                   const std::int32_t* __restrict z2, const std::int32_t* __restrict z3,
+                   const std::int32_t* __restrict l1, const std::int32_t* __restrict l2,
+                   const std::int32_t* __restrict l3) {
+    std::int32_t* __restrict n = n_.data();
+    std::int32_t* __restrict sy = sy_.data();
+    std::int32_t* __restrict syy = syy_.data();
+    std::int32_t* __restrict sz = sz_.data();
+    std::int32_t* __restrict syz = syz_.data();
+    std::int32_t* __restrict lo = lo_.data();
+    std::int32_t* __restrict hi = hi_.data();
+    const std::size_t size = padded_;
+    for (std::size_t c = 0; c < size; ++c) {
+      const std::int32_t a = o1[c], b = o2[c], d = o3[c];
+      n[c] = a + b + d;
+      sy[c] = -(a + 2 * b + 3 * d);
+      syy[c] = a + 4 * b + 9 * d;
+      sz[c] = z1[c] + z2[c] + z3[c];
+      syz[c] = -(z1[c] + 2 * z2[c] + 3 * z3[c]);
+      // By value: std::min's references become loads through selected pointers, which stop
+      // the loop vectorising.
+      const std::int32_t l12 = l1[c] < l2[c] ? l1[c] : l2[c], z12 = z1[c] > z2[c] ? z1[c] : z2[c];
+      lo[c] = l12 < l3[c] ? l12 : l3[c];
+      hi[c] = z12 > z3[c] ? z12 : z3[c];
+    }
+  }
   std::uint32_t width_;
-  std::vector<std::uint8_t> zeros_;
+  std::size_t padded_;
+  std::vector<std::uint8_t> zero_occupied_;
+  std::vector<std::int32_t> zero_lowest_, zero_least_;
   std::array<std::vector<std::uint8_t>, 4> occupied_;
-  std::array<std::vector<std::uint32_t>, 4> lowest_;
+  std::array<std::vector<std::int32_t>, 4> lowest_, least_;
   std::array<std::vector<std::uint8_t>, 4> stacked_;
-  std::vector<ColumnSums> sums_;
+  std::vector<std::int32_t> n_, sy_, syy_, sz_, syz_, lo_, hi_;
 };
 
-// Bit k of the context is the template's cell k, read from the padded rows without bounds
-// checks (the decoder spends most of its time here and in predict_lowest).
-std::size_t occupancy_context(const Rows& rows, std::int64_t r, std::int64_t c) {
-  const std::uint8_t* r0 = rows.occupied_row(r) + 2 + c;
-  const std::uint8_t* r1 = rows.occupied_row(r - 1) + 2 + c;
-  const std::uint8_t* r2 = rows.occupied_row(r - 2) + 2 + c;
-  return std::size_t{r0[-1]} | std::size_t{r0[-2]} << 1 | std::size_t{r1[-1]} << 2 | std::size_t{r1[0]} << 3 |
-         std::size_t{r1[1]} << 4 | std::size_t{r2[0]} << 5 | std::size_t{r1[-2]} << 6 | std::size_t{r1[2]} << 7 |
-         std::size_t{r2[-1]} << 8 | std::size_t{r2[1]} << 9;
-}
+// The ten template cells of the column being coded, in three shift registers that move one column
+// right per cell: the row's two cells before it (bit 0 the nearer), the row above's five from
+// offset −2 to 2 and the row above that's three from −1 to 1 (bit 0 the leftmost). Their
+// concatenation numbers the context (computing it from ten loads per cell was 9% of a decode).
+class OccupancyWindow {
+ public:
+  OccupancyWindow(const std::uint8_t* above, const std::uint8_t* above2) : above_(above), above2_(above2) {
+    for (int k = 0; k < 5; ++k) up_ |= static_cast<std::uint32_t>(above_[k - 2]) << k;
+    for (int k = 0; k < 3; ++k) up2_ |= static_cast<std::uint32_t>(above2_[k - 1]) << k;
+  }
+  std::size_t context() const { return std::size_t{row_ | up_ << 2 | up2_ << 7}; }
+  // Moves from column c to c + 1, column c's cell being `occupied`.
+  void next(std::int64_t c, unsigned occupied) {
+    row_ = ((row_ << 1) | occupied) & 3u;
+    up_ = (up_ >> 1) | static_cast<std::uint32_t>(above_[c + 3]) << 4;
+    up2_ = (up2_ >> 1) | static_cast<std::uint32_t>(above2_[c + 2]) << 2;
+  }
+
+ private:
+  const std::uint8_t* above_;
+  const std::uint8_t* above2_;
+  std::uint32_t row_ = 0, up_ = 0, up2_ = 0;
+};
 
 struct Prediction {
   std::uint32_t value = 0;
@@ -122,70 +221,45 @@ struct Prediction {
   std::size_t slope = 0;     // the plane's |gradient| in cells a cell: < ½, < 1, < 2, more
 };
 
-// The quarter of [q − ½, q + ½) that the unrounded prediction num / den fell in, given
-// t = num + den/2·... : t = (2·num + den) − 2·den·q ∈ [0, 2·den).
-std::size_t quarter(std::int64_t t, std::int64_t den) { return static_cast<std::size_t>((2 * t) / den); }
+// The quarter of [q − ½, q + ½) that the unrounded prediction num / den fell in, given the
+// remainder t = (2·num + den) − 2·den·q ∈ [0, 2·den) of the rounding division: floor(2t / den),
+// by comparisons.
+std::size_t quarter(std::int64_t t, std::int64_t den) {
+  return static_cast<std::size_t>(2 * t >= den) + static_cast<std::size_t>(t >= den) +
+         static_cast<std::size_t>(2 * t >= 3 * den);
+}
 
 // The lowest height of column (r, c) predicted from the columns behind it in the window: none,
 // the raster-previous column's; one to three, their mean; four or more, the least-squares plane
 // z = a + b·dx + c·dy through them evaluated at (0, 0), in exact integer arithmetic (the mean
 // when they are collinear). The context is the kind (0, 1, 2) × min(bit width of the heights'
-// spread, 4).
+// spread, 4). Every sum is bounded by the window (n ≤ 24, z < 2^16), so each determinant stays
+// below 2^40.
 Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits) {
-  std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
-  std::uint32_t lo = 0xFFFFFFFFu, hi = 0;
-  // The rows above: each column's sums, its offset dx = k applied here.
-  for (std::int64_t k = -kWindowColumns; k <= kWindowColumns; ++k) {
-    const ColumnSums& s = rows.sums(c + k);
-    n += s.n;
-    sx += k * s.n;
-    sxx += k * k * s.n;
-    sy += s.sy;
-    syy += s.syy;
-    sxy += k * s.sy;
-    sz += s.sz;
-    sxz += k * s.sz;
-    syz += s.syz;
-    lo = std::min(lo, s.lo);
-    hi = std::max(hi, s.hi);
-  }
-  // The current row (dy = 0): the columns before this one.
-  const std::uint8_t* occupied = rows.occupied_row(r) + 2;
-  const std::uint32_t* lowest = rows.lowest_row(r);
-  for (std::int64_t cc = std::max<std::int64_t>(0, c - kWindowColumns); cc < c; ++cc) {
-    if (occupied[cc] == 0) continue;
-    const std::int64_t dx = cc - c;
-    const std::uint32_t z = lowest[cc];
-    const auto zi = static_cast<std::int64_t>(z);
-    ++n;
-    sx += dx;
-    sxx += dx * dx;
-    sz += zi;
-    sxz += dx * zi;
-    lo = std::min(lo, z);
-    hi = std::max(hi, z);
-  }
+  const auto [n, sx, sy, sz, sxx, sxy, syy, sxz, syz, lo, hi] = rows.window(r, c);
   if (n == 0) return {previous, 0, 1, 0};
   const std::size_t spread = std::min<std::size_t>(static_cast<std::size_t>(std::bit_width(hi - lo)), 4);
-  const std::int64_t mean = floor_div(2 * sz + n, 2 * n);
-  const Prediction by_mean{static_cast<std::uint32_t>(mean), (n < 4 ? 5 : 10) + spread,
-                           quarter(2 * sz + n - 2 * n * mean, n), std::min<std::size_t>(spread, 3)};
-  if (n < 4) return by_mean;
+  const auto by_mean = [&, n = n, sz = sz] {
+    // 2·sz + n < 2^22: a 32-bit division.
+    const auto num = static_cast<std::uint32_t>(2 * sz + n), den = static_cast<std::uint32_t>(2 * n);
+    const std::uint32_t mean = num / den;
+    return Prediction{mean, (n < 4 ? 5 : 10) + spread, quarter(num - den * mean, n), std::min<std::size_t>(spread, 3)};
+  };
+  if (n < 4) return by_mean();
   std::int64_t det = det3(n, sx, sy, sx, sxx, sxy, sy, sxy, syy);
+  if (det == 0) return by_mean();
   std::int64_t det_a = det3(sz, sx, sy, sxz, sxx, sxy, syz, sxy, syy);
-  if (det == 0) return by_mean;
   const std::int64_t det_e = det3(n, sz, sy, sx, sxz, sxy, sy, syz, syy);
   const std::int64_t det_f = det3(n, sx, sz, sx, sxx, sxz, sy, sxy, syz);
   if (det < 0) {
     det = -det;
     det_a = -det_a;
   }
-  const std::int64_t plane = floor_div(2 * det_a + det, 2 * det);
+  const auto [plane, t] = floor_divide(2 * det_a + det, 2 * det);
   const std::int64_t top = (std::int64_t{1} << bits) - 1;
   const std::int64_t gradient = (det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f);
   const std::size_t slope = 2 * gradient < det ? 0 : gradient < det ? 1 : gradient < 2 * det ? 2 : 3;
-  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread,
-          quarter(2 * det_a + det - 2 * det * plane, det), slope};
+  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread, quarter(t, det), slope};
 }
 
 struct ColumnEncoding {
@@ -255,11 +329,14 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
   for (std::int64_t r = 0; r < height; ++r) {
     if (io.exhausted()) return false;
     rows.start(r);
+    OccupancyWindow window(rows.occupied_row(r - 1), rows.occupied_row(r - 2));
     const std::uint32_t cy = y0 + static_cast<std::uint32_t>(r);
     for (std::int64_t c = 0; c < width; ++c) {
       const std::uint32_t cx = x0 + static_cast<std::uint32_t>(c);
       const bool here = in_cell(cursor, cx, cy);
-      if (io.bit(m.occupied[occupancy_context(rows, r, c)], here ? 1u : 0u) == 0) continue;
+      const unsigned occupied = io.bit(m.occupied[window.context()], here ? 1u : 0u);
+      window.next(c, occupied);
+      if (occupied == 0) continue;
       if (++produced > max_points) return false;
       // The first point: where in the cell (shift > 0), and its height against the prediction.
       std::uint32_t ox = 0, oy = 0;
