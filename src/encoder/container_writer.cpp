@@ -112,7 +112,7 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
         "rotations 4–20)");
   }
   if (o.format_version < 2 || o.format_version > kFormatVersion) {
-    return invalid_argument("the writer writes format versions 2 and 3, not " + std::to_string(o.format_version));
+    return invalid_argument("the writer writes format versions 2 to 4, not " + std::to_string(o.format_version));
   }
   if (o.patches_per_block == 0 || o.codewords_per_block == 0) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
@@ -120,7 +120,7 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
   if (const AttributeParams& a = o.attributes; a.channels != 0) {
     if ((a.channels & ~kKnownChannels) != 0) return invalid_argument("unknown attribute channels");
     if (o.format_version < 3 || model.has_colours) {
-      return invalid_argument("per-patch attributes need format version 3 and no code-word colours");
+      return invalid_argument("per-patch attributes need format version 3 or later and no code-word colours");
     }
     if (a.colour_step < 1 || a.colour_step > kMaxColourStep || a.intensity_step < 1 ||
         a.intensity_step > kMaxIntensityStep) {

@@ -40,13 +40,13 @@ struct QuantOptions {
   // Store every point of a code word, also several in one grid cell (header flag bit 3);
   // otherwise a cell keeps one (merge_duplicate_cells in encoder/codeword_trim.hpp).
   bool keep_duplicates = false;
-  // The format version to write: 3, or 2 (whose code words store duplicates as they are), for
-  // comparisons and the golden files.
+  // The format version to write: 4, or 3 (the columns without version 4's plane-reach contexts)
+  // or 2 (whose code words store duplicates as they are), for comparisons and the golden files.
   int format_version = kFormatVersion;
   // Per-point attributes coded per patch (FORMAT.md, "Attributes"): when `attributes.channels`
   // is not 0, the values of each decoded point are those of its nearest point of
-  // `attribute_source` (which must have them, and outlive the call). Needs format version 3 and
-  // a model without code-word colours.
+  // `attribute_source` (which must have them, and outlive the call). Needs format version 3 or
+  // later and a model without code-word colours.
   AttributeParams attributes;
   const PointCloud* attribute_source = nullptr;
 };

@@ -249,7 +249,7 @@ std::string encode_codeword_block_v3(std::span<const Codeword> codewords, const 
   const int bits = header.position_bits;
   std::string stream;
   RangeEncoder rc(stream);
-  ColumnModels models;
+  ColumnModels models(header.version);
   AttributeWriter attributes{header, {}, {}};
   std::vector<std::array<std::uint32_t, 3>> grid, sorted, coded;
   std::vector<std::uint32_t> kept;
@@ -426,7 +426,7 @@ Status decode_codeword_block(std::span<const std::byte> raw, const BlockEntry& e
     if (!v1::decode_positions(pos_bytes, pbits, grid)) overflow = 1;
   } else if (version3) {
     RangeDecoder rc(pos_bytes);
-    ColumnModels models;
+    ColumnModels models(header.version);
     std::vector<std::array<std::uint32_t, 3>> points;
     points.reserve(n);
     for (std::uint32_t c = 0; c < entry.count; ++c) {

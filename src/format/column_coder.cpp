@@ -219,7 +219,25 @@ struct Prediction {
   std::size_t context = 0;   // kind × 5 + spread
   std::size_t fraction = 1;  // where the unrounded prediction fell in [value − ½, value + ½), in quarters
   std::size_t slope = 0;     // the plane's |gradient| in cells a cell: < ½, < 1, < 2, more
+  // A plane's D > 0 (0 for the other kinds) and 2·Da + |De| + |Df|: the plane's top over the
+  // column's cell, p + (|b| + |c|)/2, is (2·Da + |De| + |Df|) / (2·D).
+  std::int64_t det = 0, top = 0;
 };
+
+// Where the predicted plane reaches above height z in the column (version 4's contexts of
+// "another point"): 0 when its top over the column's cell lies below z, 1 within half a cell
+// above it, 2 within a cell, 3 higher; 4 when the prediction is not a plane. On range scans at
+// the coarse levels most further points in a column are the surface crossing a cell boundary,
+// which the plane foretells: igea's "another" decisions cost 26-29% fewer bits at levels 7 and
+// 9, bunny's 10-13%, dragon_scans' 8-11%, 3-5% at level 5 (docs/FORMAT_NOTES.md, "Where the
+// plane reaches").
+std::size_t plane_reach(const Prediction& pred, std::uint32_t z) {
+  if (pred.det == 0) return 4;
+  // Twice the top's height above z, in units of 1/D.
+  const std::int64_t above = pred.top - 2 * pred.det * static_cast<std::int64_t>(z);
+  return static_cast<std::size_t>(above >= 0) + static_cast<std::size_t>(above >= pred.det) +
+         static_cast<std::size_t>(above >= 2 * pred.det);
+}
 
 // The quarter of [q − ½, q + ½) that the unrounded prediction num / den fell in, given the
 // remainder t = (2·num + den) − 2·den·q ∈ [0, 2·den) of the rounding division: floor(2t / den),
@@ -259,7 +277,8 @@ Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std:
   const std::int64_t top = (std::int64_t{1} << bits) - 1;
   const std::int64_t gradient = (det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f);
   const std::size_t slope = 2 * gradient < det ? 0 : gradient < det ? 1 : gradient < 2 * det ? 2 : 3;
-  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread, quarter(t, det), slope};
+  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread, quarter(t, det), slope,
+          det, 2 * det_a + gradient};
 }
 
 struct ColumnEncoding {
@@ -362,7 +381,8 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
       for (;; ++k) {
         const bool more = in_cell(cursor + k, cx, cy);
         const std::size_t ctx = (std::min<std::size_t>(k - 1, 2) * 2 + stack_context) * 4 + pred.slope;
-        if (io.bit(m.another[ctx], more ? 1u : 0u) == 0) break;
+        const std::size_t reach_ctx = m.plane_reach ? ctx * ColumnModels::kReaches + plane_reach(pred, z_here) : ctx;
+        if (io.bit(m.another[reach_ctx], more ? 1u : 0u) == 0) break;
         if (++produced > max_points) return false;
         rows.set_stacked(r, c);
         const Point* t = more ? &truth[cursor + k] : nullptr;
@@ -392,7 +412,11 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
 
 }  // namespace
 
-ColumnModels::ColumnModels() : empty(kProbabilityHalf), other_zero(kProbabilityHalf), other_sign(kProbabilityHalf) {
+ColumnModels::ColumnModels(int format_version)
+    : plane_reach(format_version >= 4),
+      empty(kProbabilityHalf),
+      other_zero(kProbabilityHalf),
+      other_sign(kProbabilityHalf) {
   occupied.fill(kProbabilityHalf);
   zero.fill(kProbabilityHalf);
   sign.fill(kProbabilityHalf);

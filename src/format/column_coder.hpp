@@ -1,4 +1,4 @@
-// The position coder of version 3's code words (docs/FORMAT.md, "The columns"): a code word's
+// The position coder of versions 3 and 4's code words (docs/FORMAT.md, "The columns"): a code word's
 // grid points as columns along its frame's z axis, which is the patch's mean normal. The
 // occupied columns are a binary image over the code word's bounding rectangle, coded cell by
 // cell under a context of ten cells already coded (as JBIG codes bilevel images); each column's
@@ -27,18 +27,23 @@ namespace sspc::codec {
 inline constexpr std::size_t kMaxColumnPointsPerByte = 1024;
 
 // The adaptive models of one code-book block's code words (reset per block, so that blocks
-// decode independently).
+// decode independently), for the format version the block belongs to: version 4 splits each of
+// version 3's contexts of "another point" five ways by where the predicted plane reaches
+// (docs/FORMAT.md, "The columns").
 struct ColumnModels {
   static constexpr std::size_t kOccupancyContexts = 1024;
   static constexpr std::size_t kHeightContexts = 15;  // 3 predictor kinds × 5 spreads
-  ColumnModels();
+  static constexpr std::size_t kAnotherContexts = 24;  // version 3's; version 4 has 5 × as many
+  static constexpr std::size_t kReaches = 5;
+  explicit ColumnModels(int format_version = 4);
+  bool plane_reach;  // version 4's contexts
   std::uint16_t empty;
   std::array<ValueModel, 4> rectangle;  // x0, y0, width − 1, height − 1
   std::array<std::uint16_t, kOccupancyContexts> occupied;
   std::array<std::uint16_t, 4 * kHeightContexts> zero;  // the lowest height's residual is 0
   std::array<std::uint16_t, 4 * kHeightContexts> sign;  // ... and is negative
   std::array<ValueModel, kHeightContexts> magnitude;     // |residual| − 1
-  std::array<std::uint16_t, 24> another;                 // one more point in the cell
+  std::array<std::uint16_t, kAnotherContexts * kReaches> another;  // one more point in the cell
   ValueModel shift;                                      // the code word's cell shift
   std::uint16_t other_zero, other_sign;                  // a further point's height in a cell
   ValueModel other_magnitude;                            // of shift > 0, against the previous
