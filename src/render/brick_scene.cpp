@@ -151,7 +151,8 @@ StatusOr<BrickScene::SurfacePtr> BrickScene::surface(int level, std::size_t bric
     cached_bytes_ -= v->second.surface.get().value()->memory_bytes();
     cache_.erase(v);
   }
-  peak_cached_bytes_ = std::max(peak_cached_bytes_, cached_bytes_);
+  peak_held_bytes_ = std::max(peak_held_bytes_, cached_bytes_ + source_bytes());
+  bricks_resized(cached_bytes_);
   return built;
 }
 
@@ -353,7 +354,8 @@ StatusOr<Image> BrickScene::render(const FrameOptions& o, RenderStats* stats) co
   if (stats != nullptr) {
     stats->build_seconds = build_seconds_;
     std::lock_guard lock(mutex_);
-    stats->scene_bytes = memory_bytes_ + peak_cached_bytes_ + source_peak_bytes();
+    peak_held_bytes_ = std::max(peak_held_bytes_, cached_bytes_ + source_bytes());
+    stats->scene_bytes = memory_bytes_ + peak_held_bytes_;
     stats->bytes_read = bytes_loaded() - read_before;
     stats->pages_read = loads_ - loads_before;
   }

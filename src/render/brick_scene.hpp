@@ -73,9 +73,13 @@ class BrickScene : public RenderScene {
   virtual StatusOr<SurfacePtr> load(int level, std::size_t b) const = 0;
   // What a frame reports as read for its bricks (a paged scene's file bytes); 0 by default.
   virtual std::uint64_t bytes_loaded() const { return 0; }
-  // The most its source has held for load() besides the bricks (a compressed model's cache of
+  // What its source holds now for load() besides the bricks (a compressed model's cache of
   // decoded blocks), counted in a frame's scene_bytes; 0 by default.
-  virtual std::uint64_t source_peak_bytes() const { return 0; }
+  virtual std::uint64_t source_bytes() const { return 0; }
+  // Told, under the cache's lock, what the bricks hold after each one is built and the cache
+  // evicted down to its budget: a compressed scene lends its model's cache what the bricks leave
+  // of the budget. Nothing by default.
+  virtual void bricks_resized(std::uint64_t /*brick_bytes*/) const {}
 
   Box3f bounds_;
 
@@ -135,7 +139,9 @@ class BrickScene : public RenderScene {
   mutable std::list<std::size_t> lru_;
   mutable std::unordered_map<std::size_t, Entry> cache_;
   mutable std::uint64_t cached_bytes_ = 0;
-  mutable std::uint64_t peak_cached_bytes_ = 0;
+  // The most the bricks and the source have held together, taken when a brick has been built
+  // (the source's cache then holds what that brick's build decoded) and at a frame's end.
+  mutable std::uint64_t peak_held_bytes_ = 0;
   mutable std::atomic<std::uint64_t> loads_{0};
 };
 
