@@ -128,7 +128,8 @@ class CompressedModel {
   // each (whole patch blocks: FORMAT.md), in order: joined, the chunks are exactly decode_all()'s
   // cloud, and each carries its origin. Memory stays about one chunk and the code-word blocks
   // its patches use, whatever the model's size (a tiled model's tiles use their own code books).
-  // A model without patches gives one empty chunk. options.patch_of, when set, holds each
+  // chunk_points = SIZE_MAX gives one chunk, whatever the header says of the source's size. A
+  // model without patches gives one empty chunk. options.patch_of, when set, holds each
   // chunk's patches when the sink sees it. Stops at the
   // first error, the sink's included. kInvalidArgument for chunk_points == 0.
   Status decode_chunks(std::size_t chunk_points, const std::function<Status(PointCloud&&)>& sink,

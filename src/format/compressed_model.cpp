@@ -369,11 +369,16 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
 
 StatusOr<PointCloud> CompressedModel::decode_all(const DecodeOptions& options) const {
   PointCloud out;
-  std::vector<std::uint32_t> patch_of;
+  std::vector<std::uint32_t> patch_of, chunk_patch_of;
   DecodeOptions one = options;
-  if (options.patch_of != nullptr) one.patch_of = &patch_of;
+  if (options.patch_of != nullptr) one.patch_of = &chunk_patch_of;
+  // One chunk: every patch block (decode_chunks reads the largest size as "no limit").
+  bool first = true;
   SSPC_RETURN_IF_ERROR(decode_chunks(std::numeric_limits<std::size_t>::max(), [&](PointCloud&& chunk) {
-    out = std::move(chunk);  // one chunk: every patch block
+    SSPC_DCHECK(first);
+    first = false;
+    out = std::move(chunk);
+    patch_of = std::move(chunk_patch_of);
     return Status();
   }, one));
   if (options.patch_of != nullptr) *options.patch_of = std::move(patch_of);
@@ -390,8 +395,12 @@ Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::funct
   const double per_block = static_cast<double>(impl_->patches_per_block()) *
                            static_cast<double>(std::max<std::uint64_t>(1, reader.header().source_points)) /
                            static_cast<double>(std::max<std::size_t>(1, patch_count()));
+  // The header's source point count is what the encoder read, which a hostile file may state
+  // as anything: it sizes the chunks, never what they hold; "no limit" is one chunk whatever it
+  // says (decode_all relies on that).
   const std::size_t blocks_per_chunk =
-      static_cast<double>(chunk_points) >= per_block * static_cast<double>(p_blocks)
+      chunk_points == std::numeric_limits<std::size_t>::max() ||
+              static_cast<double>(chunk_points) >= per_block * static_cast<double>(p_blocks)
           ? std::max<std::size_t>(1, p_blocks)
           : std::max<std::size_t>(1, static_cast<std::size_t>(static_cast<double>(chunk_points) / per_block));
   const bool colours = info().has_colours;
