@@ -458,7 +458,8 @@ ContainerHeader shared_header(const EncodedModel& model, const QuantOptions& opt
                                                     : model.patch_radius / 256.0f;
   h.position_bits = options.position_bits;
   if (options.position_step > 0) {
-    h.position_bits = position_bits_for_step(model.patch_radius, options.position_step);
+    h.position_bits = position_bits_for_step(static_cast<double>(model.patch_radius),
+                                             static_cast<double>(options.position_step));
     h.patch_radius = std::max(model.patch_radius,
                               options.position_step * static_cast<float>(1u << (h.position_bits - 1)));
   }

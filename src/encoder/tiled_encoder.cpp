@@ -164,7 +164,7 @@ Status TiledEncoder::Impl::measure() {
   float spacing = median_of(4 * first, false);
   if (!(spacing > 0)) spacing = first;  // tiles too small to hold anything four spacings deep
   if (!(spacing > 0)) return invalid_argument("no tile has two distinct points; use larger tiles");
-  build.spacing = spacing;
+  build.spacing = static_cast<double>(spacing);
 
   const double guess = build.spacing * std::sqrt(static_cast<double>(build.level.patch_points) / std::numbers::pi);
   // The sampled tiles in parallel, each radius in its tile's slot.
@@ -187,8 +187,8 @@ Status TiledEncoder::Impl::measure() {
         return;
       }
       const KdTree3 tree(part->positions);
-      radius = codec::radius_for_patch_points(*part, tree, build.spacing, build.level.patch_points,
-                                              static_cast<std::size_t>(points));
+      radius = static_cast<double>(codec::radius_for_patch_points(
+          *part, tree, build.spacing, build.level.patch_points, static_cast<std::size_t>(points)));
       if (radius <= 0.8 * depth) break;
       depth = 2 * radius;
     }
@@ -204,7 +204,7 @@ Status TiledEncoder::Impl::measure() {
   build.patch_radius = static_cast<float>(std::min(weighted_median(radii), (b.max().cast<double>() - b.min().cast<double>()).norm()));
   // A patch gathers the points within one patch radius of its centre, an own point of the tile;
   // the normals of those see their 16 nearest, within a few spacings (tiling.hpp).
-  margin = static_cast<float>(double{build.patch_radius} + 8 * build.spacing);
+  margin = static_cast<float>(static_cast<double>(build.patch_radius) + 8 * build.spacing);
   return Status();
 }
 
@@ -290,8 +290,8 @@ Status TiledEncoder::begin(const std::filesystem::path& output) {
   const codec::TileInput& in = m.store->input();
   codec::BuildStats& bs = m.build_stats;
   bs.spacing = m.build.spacing;
-  bs.patch_radius = m.build.patch_radius;
-  bs.coverage_radius = m.build.patch_radius / codec::kPatchOverCoverage;
+  bs.patch_radius = static_cast<double>(m.build.patch_radius);
+  bs.coverage_radius = static_cast<double>(m.build.patch_radius / codec::kPatchOverCoverage);
   codec::EncodedModel shared;
   shared.patch_radius = m.build.patch_radius;
   shared.coverage_radius = static_cast<float>(bs.coverage_radius);
