@@ -25,6 +25,7 @@ struct DecodeCliOptions {
   std::string format = "ply";
   long long patch = -1;
   bool overlap = false;
+  bool stored = false;
   bool ascii = false;
   bool force = false;
   bool json = false;
@@ -54,6 +55,7 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   progress_stages(progress.get(), 1);
   DecodeOptions options;
   options.overlap = o.overlap;
+  options.resample = !o.stored;
   options.progress = progress.get();
 
   PlyWriteOptions ply;
@@ -153,6 +155,9 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_flag("--overlap", o->overlap,
                 "Keep every stored point of every patch, no region test (whole spheres for files "
                 "encoded with --full-spheres)");
+  app->add_flag("--stored", o->stored,
+                "The points as stored, without the resampling a coarse model's header asks for "
+                "(docs/FORMAT.md, \"Resampling\")");
   app->add_flag("--ascii", o->ascii, "Write ASCII PLY instead of binary");
   app->add_flag("-f,--force", o->force, "Overwrite the output if it exists");
   app->add_flag("--json", o->json, "Machine-readable summary on stdout (keys: docs/CLI.md)");

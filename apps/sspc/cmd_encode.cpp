@@ -33,6 +33,7 @@ struct EncodeCliOptions {
   bool store_normals = false;
   bool full_spheres = false;
   bool keep_duplicates = false;
+  std::string resample = "auto";
   std::string attributes = "all";
   int colour_quality = EncodeOptions().colour_quality;
   int intensity_step = 1;
@@ -115,6 +116,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.store_normals = o.store_normals;
   options.full_spheres = o.full_spheres;
   options.keep_duplicates = o.keep_duplicates;
+  options.resample = o.resample == "auto" ? -1 : o.resample == "off" ? 0 : std::stoi(o.resample);
   options.attributes = *keep;
   options.colour_quality = o.colour_quality;
   options.intensity_step = o.intensity_step;
@@ -182,6 +184,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
     json["untrimmed_codeword_points"] = stats->untrimmed_codeword_points;
     json["position_bits"] = stats->position_bits;
     json["position_step"] = stats->position_step;
+    json["resample"] = stats->resample;
     json["spacing"] = stats->spacing;
     json["patch_radius"] = stats->patch_radius;
     json["coverage_radius"] = stats->coverage_radius;
@@ -257,6 +260,13 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                 "instance decodes are dropped");
   app->add_flag("--keep-duplicates", o->keep_duplicates,
                 "Store every point, also several in one cell of the code words' grid (by default a cell keeps one)");
+  app->add_option("--resample", o->resample,
+                  "Decoded points a stored point stands for, per side, on its code word's surface "
+                  "(docs/FORMAT.md, \"Resampling\"): auto (where the decode would hold under two "
+                  "thirds of the source's points), off, or 1-4")
+      ->check(CLI::IsMember({"auto", "off", "1", "2", "3", "4"}).description(""))
+      ->type_name("auto|off|1..4")
+      ->capture_default_str();
   app->add_option("--tile-points", o->tile_points,
                   "Encode in octree tiles of at most N points, each with a margin of its neighbours', "
                   "joined into one model (0: the whole cloud at once)")

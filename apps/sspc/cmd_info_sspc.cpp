@@ -78,6 +78,7 @@ int run_info_sspc(const std::string& path, bool as_json) {
     json["normal_bits"] = m.normal_bits;
     json["rotation_bits"] = m.rotation_bits;
     json["translation_step"] = double{m.translation_step};
+    json["resample"] = m.resample;
     json["patches_per_block"] = m.patches_per_block;
     json["codewords_per_block"] = m.codewords_per_block;
     Json sections = Json::array();
@@ -119,6 +120,10 @@ int run_info_sspc(const std::string& path, bool as_json) {
       "quantisation   positions %d bits, normals %d bits, rotations %d bits, "
       "translation step %.9g\n",
       m.position_bits, m.normal_bits, m.rotation_bits, double{m.translation_step});
+  if (m.resample > 0) {
+    std::printf("resample       %d x %d points a decoded point, on its code word's surface\n", m.resample,
+                m.resample);
+  }
   std::printf("blocks         %u patches, %u code words per block\n", m.patches_per_block,
               m.codewords_per_block);
   std::printf("sections\n");

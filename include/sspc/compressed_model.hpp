@@ -37,6 +37,11 @@ struct DecodeOptions {
   // returned cloud (what a renderer needs to colour points by code word, and what a user needs
   // to tell instances apart).
   std::vector<std::uint32_t>* patch_of = nullptr;
+  // Whether a model whose header asks for it (ModelInfo::resample > 0) is decoded resampled:
+  // each point replaced by resample × resample points on its code word's local surface, about
+  // the source's count (docs/FORMAT.md, "Resampling"). false: the points as stored. Ignored
+  // with `overlap`.
+  bool resample = true;
 };
 
 // Patch k as stored: its code word and the transform world_from_codeword (x ↦ R x + t); t is
@@ -81,6 +86,9 @@ struct ModelInfo {
   int normal_bits = 0;
   int rotation_bits = 0;
   float translation_step = 0;
+  // Points a decoded point stands for, per side: resample² points on its code word's local
+  // surface (DecodeOptions::resample); 0 when the model is decoded as stored.
+  int resample = 0;
   std::uint64_t patches = 0;
   std::uint64_t codewords = 0;
   std::uint64_t codeword_points = 0;  // Σ code-word sizes

@@ -47,6 +47,10 @@ struct EncodeOptions {
   // cell keeps one point (G-PCC's merged duplicates): they decode to one position, so the
   // paper's PSNR barely moves (≤ 0.06 dB) while coarse levels lose 20–30% of their points.
   bool keep_duplicates = false;
+  // Whether the decoder resamples each decoded point on its code word's surface, m × m points
+  // for one (docs/FORMAT.md, "Resampling"): -1 lets the writer choose (where the decode would
+  // hold under two thirds of the source's points: the coarse levels), 0 never, 1-4 that m.
+  int resample = -1;
   // The attributes to keep, of those the cloud has (kAttribute* bits); the others are dropped.
   unsigned attributes = kAllAttributes;
   int colour_quality = 70;   // 0..100 (100: lossless); see colour_step_for_quality
@@ -73,6 +77,7 @@ struct EncodeStats {
   std::uint64_t untrimmed_codeword_points = 0;  // Σ of the representatives' sphere sizes
   int position_bits = 0;      // the code words' grid: 2·patch_radius / 2^position_bits
   double position_step = 0;
+  int resample = 0;  // points a decoded point stands for, per side (EncodeOptions::resample)
   double spacing = 0;
   double patch_radius = 0;
   double coverage_radius = 0;

@@ -42,6 +42,7 @@ py::dict encode_stats(const EncodeStats& s, int level, double seconds) {
   d["untrimmed_codeword_points"] = s.untrimmed_codeword_points;
   d["position_bits"] = s.position_bits;
   d["position_step"] = s.position_step;
+  d["resample"] = s.resample;
   d["spacing"] = s.spacing;
   d["patch_radius"] = s.patch_radius;
   d["coverage_radius"] = s.coverage_radius;
@@ -131,11 +132,24 @@ unsigned attribute_bits(const py::object& value) {
 // A str or os.PathLike argument as a path.
 std::filesystem::path file_path(py::handle h) { return h.cast<std::filesystem::path>(); }
 
+// resample='auto', 'off' or 1..4, as `sspc encode --resample` (EncodeOptions::resample).
+int resample_option(const py::object& value) {
+  if (py::isinstance<py::str>(value)) {
+    const std::string name = value.cast<std::string>();
+    if (name == "auto") return -1;
+    if (name == "off") return 0;
+  } else if (py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value)) {
+    const long long m = value.cast<long long>();
+    if (m >= 0 && m <= 4) return static_cast<int>(m);
+  }
+  throw py::value_error("resample: 'auto', 'off' or 0..4, not " + py::repr(value).cast<std::string>());
+}
+
 // The options encode() and TiledEncoder take, from their shared keyword arguments (option_args).
 EncodeOptions make_options(int level, std::optional<int> patch_points, std::optional<float> epsilon,
                            std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits,
-                           bool store_normals, bool full_spheres, bool keep_duplicates, const py::object& attributes,
-                           int colour_quality, int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit,
+                           bool store_normals, bool full_spheres, bool keep_duplicates, const py::object& resample,
+                           const py::object& attributes, int colour_quality, int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit,
                            const std::string& normals, const py::object& viewpoint, std::uint64_t seed) {
   EncodeOptions options;
   options.level = level;
@@ -147,6 +161,7 @@ EncodeOptions make_options(int level, std::optional<int> patch_points, std::opti
   options.store_normals = store_normals;
   options.full_spheres = full_spheres;
   options.keep_duplicates = keep_duplicates;
+  options.resample = resample_option(resample);
   options.attributes = attribute_bits(attributes);
   options.colour_quality = colour_quality;
   options.intensity_step = intensity_step;
@@ -163,7 +178,7 @@ auto option_args() {
       py::arg("level") = 5, py::arg("patch_points") = py::none(), py::arg("epsilon") = py::none(),
       py::arg("tau") = py::none(), py::arg("step") = py::none(), py::arg("position_bits") = py::none(),
       py::arg("store_normals") = false, py::arg("full_spheres") = false, py::arg("keep_duplicates") = false,
-      py::arg("attributes") = "all", py::arg("colour_quality") = EncodeOptions().colour_quality,
+      py::arg("resample") = "auto", py::arg("attributes") = "all", py::arg("colour_quality") = EncodeOptions().colour_quality,
       py::arg("intensity_step") = 1, py::arg("tile_points") = 0, py::arg("memory_limit") = 0, py::arg("normals") = "auto",
       py::arg("viewpoint") = py::none(), py::arg("seed") = 1);
 }
@@ -171,7 +186,8 @@ auto option_args() {
 py::object encode_cloud(const py::object& cloud_or_positions, const std::optional<std::filesystem::path>& path,
                         int level, std::optional<int> patch_points, std::optional<float> epsilon,
                         std::optional<float> tau, std::optional<float> step, std::optional<int> position_bits, bool store_normals,
-                        bool full_spheres, bool keep_duplicates, const py::object& attributes, int colour_quality,
+                        bool full_spheres, bool keep_duplicates, const py::object& resample,
+                        const py::object& attributes, int colour_quality,
                         int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit, const std::string& normals,
                         const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
@@ -187,7 +203,7 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
     if (memory_limit == 0) cloud = value_or_raise(without_gil([&] { return read_point_cloud(input); }));
   }
   EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
-                                       full_spheres, keep_duplicates, attributes, colour_quality, intensity_step,
+                                       full_spheres, keep_duplicates, resample, attributes, colour_quality, intensity_step,
                                        tile_points, memory_limit, normals, viewpoint, seed);
   CallbackProgress reporter(progress);
   options.progress = reporter.get();
@@ -240,6 +256,7 @@ py::dict model_info(const CompressedModel& model) {
   d["normal_bits"] = m.normal_bits;
   d["rotation_bits"] = m.rotation_bits;
   d["translation_step"] = m.translation_step;
+  d["resample"] = m.resample;
   d["patches_per_block"] = m.patches_per_block;
   d["codewords_per_block"] = m.codewords_per_block;
   py::list sections;
@@ -301,9 +318,10 @@ CompressedModel from_buffer(const py::buffer& buffer) {
   return value_or_raise(without_gil([&] { return CompressedModel::from_bytes(std::move(bytes)); }));
 }
 
-DecodeOptions decode_options(bool overlap) {
+DecodeOptions decode_options(bool overlap, bool stored) {
   DecodeOptions options;
   options.overlap = overlap;
+  options.resample = !stored;
   return options;
 }
 
@@ -340,7 +358,7 @@ file raises RuntimeError ("corrupt: ...") naming the section, block and byte off
 The model's header as `sspc info --json` prints it: a dict with format, version, file_bytes,
 normals, colours, source_points, patches, codewords, codeword_points, overlap_points,
 codebook_ratio, bits_per_point, patch_radius, coverage_radius, codeword_radius, spacing, bbox_min,
-bbox_max, position_bits, normal_bits, rotation_bits, translation_step, patches_per_block,
+bbox_max, position_bits, normal_bits, rotation_bits, translation_step, resample, patches_per_block,
 codewords_per_block and sections. The encoder's level is not stored in the file.)doc")
       .def("patch", &patch_record, py::arg("k"), R"doc(
 Patch k as stored: a dict with its code word's index ("codeword"), and the transform
@@ -351,27 +369,30 @@ being the patch's region centre. Raises IndexError out of range.)doc")
            "instances' bounding sphere). Raises IndexError out of range.")
       .def(
           "decode_patch",
-          [](const CompressedModel& model, py::ssize_t k, bool overlap) {
+          [](const CompressedModel& model, py::ssize_t k, bool overlap, bool stored) {
             const std::size_t index = checked_index(k, model.patch_count(), "patch");
-            return value_or_raise(without_gil([&] { return model.decode_patch(index, decode_options(overlap)); }));
+            return value_or_raise(without_gil([&] { return model.decode_patch(index, decode_options(overlap, stored)); }));
           },
-          py::arg("k"), py::kw_only(), py::arg("overlap") = false,
+          py::arg("k"), py::kw_only(), py::arg("overlap") = false, py::arg("stored") = false,
           "Patch k's points in the world: exactly its part of decode_all(), in the same order. overlap=True: "
-          "every stored point of the instance, not only those of the patch's own region.")
+          "every stored point of the instance, not only those of the patch's own region. stored=True: the points "
+          "as stored, without the resampling the model's header asks for (info()['resample']).")
       .def(
           "decode_box",
-          [](const CompressedModel& model, const py::object& lo, const py::object& hi, bool overlap, int threads) {
+          [](const CompressedModel& model, const py::object& lo, const py::object& hi, bool overlap, bool stored,
+             int threads) {
             const Box3f box(vec3(lo, "lo"), vec3(hi, "hi"));
             ThreadLimit limit(threads);
-            return value_or_raise(without_gil([&] { return model.decode_box(box, decode_options(overlap)); }));
+            return value_or_raise(without_gil([&] { return model.decode_box(box, decode_options(overlap, stored)); }));
           },
-          py::arg("lo"), py::arg("hi"), py::kw_only(), py::arg("overlap") = false, py::arg("threads") = 0,
+          py::arg("lo"), py::arg("hi"), py::kw_only(), py::arg("overlap") = false, py::arg("stored") = false,
+          py::arg("threads") = 0,
           "Exactly the points of decode_all() inside the box [lo, hi] (inclusive; lo and hi are (x, y, z)), in the "
           "same order, decoding only the patches near it.")
       .def(
           "decode_all",
-          [](const CompressedModel& model, bool overlap, int threads, const py::object& progress) {
-            DecodeOptions options = decode_options(overlap);
+          [](const CompressedModel& model, bool overlap, bool stored, int threads, const py::object& progress) {
+            DecodeOptions options = decode_options(overlap, stored);
             CallbackProgress reporter(progress);
             options.progress = reporter.get();
             ThreadLimit limit(threads);
@@ -379,13 +400,15 @@ being the patch's region centre. Raises IndexError out of range.)doc")
             reporter.rethrow();
             return value_or_raise(std::move(cloud));
           },
-          py::kw_only(), py::arg("overlap") = false, py::arg("threads") = 0, py::arg("progress") = py::none(),
-          "The whole model as a PointCloud, patches in file order; parallel and deterministic. The decoded "
+          py::kw_only(), py::arg("overlap") = false, py::arg("stored") = false, py::arg("threads") = 0,
+          py::arg("progress") = py::none(),
+          "The whole model as a PointCloud, patches in file order; parallel and deterministic. stored: see "
+          "decode_patch(). The decoded "
           "buffers become the PointCloud's without a copy. progress: see encode().")
       .def(
           "decode_chunks",
           [](const CompressedModel& model, const py::object& sink, std::size_t chunk_points, bool overlap,
-             int threads) {
+             bool stored, int threads) {
             ThreadLimit limit(threads);
             std::unique_ptr<py::error_already_set> raised;
             const Status s = without_gil([&] {
@@ -398,13 +421,13 @@ being the patch's region centre. Raises IndexError out of range.)doc")
                   return Status(StatusCode::kCancelled, "the sink raised");
                 }
                 return Status();
-              }, decode_options(overlap));
+              }, decode_options(overlap, stored));
             });
             if (raised) throw std::move(*raised);
             check(s);
           },
           py::arg("sink"), py::kw_only(), py::arg("chunk_points") = std::size_t{1} << 20, py::arg("overlap") = false,
-          py::arg("threads") = 0,
+          py::arg("stored") = false, py::arg("threads") = 0,
           "decode_all()'s points handed to sink(PointCloud) in chunks of whole patches, about chunk_points each, "
           "in order: for a model whose decoded cloud does not fit in memory (write each chunk on, or reduce it). "
           "Memory stays about one chunk. What the sink raises stops the decode and is raised here.")
@@ -421,11 +444,12 @@ being the patch's region centre. Raises IndexError out of range.)doc")
 TiledEncoder plan_tiled(const py::object& cloud_or_positions, int level, std::optional<int> patch_points,
                         std::optional<float> epsilon, std::optional<float> tau, std::optional<float> step,
                         std::optional<int> position_bits, bool store_normals, bool full_spheres,
-                        bool keep_duplicates, const py::object& attributes, int colour_quality, int intensity_step,
+                        bool keep_duplicates, const py::object& resample, const py::object& attributes,
+                        int colour_quality, int intensity_step,
                         std::uint64_t tile_points, std::uint64_t memory_limit, const std::string& normals, const py::object& viewpoint,
                         std::uint64_t seed, const py::object& work_dir) {
   const EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
-                                             full_spheres, keep_duplicates, attributes, colour_quality,
+                                             full_spheres, keep_duplicates, resample, attributes, colour_quality,
                                              intensity_step, tile_points, memory_limit, normals, viewpoint, seed);
   if (py::isinstance<py::str>(cloud_or_positions) || py::hasattr(cloud_or_positions, "__fspath__")) {
     const std::filesystem::path input = file_path(cloud_or_positions);
@@ -449,6 +473,8 @@ patch_points (8..65536), epsilon, tau, step (grid step in spacings), position_bi
 single fields of the level;
 store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
 keep_duplicates stores every point, also several in one cell of the code words' grid;
+resample ('auto', 'off' or 1..4) asks the decoder to replace each decoded point by m × m points on
+its code word's surface (docs/FORMAT.md, "Resampling"; 'auto': at the coarse levels);
 attributes ('all', 'none', or names among colour, intensity, classification, returns) chooses the
 per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
 intensity_step 1..4096 (1: lossless) set their rates; tile_points > 0 encodes in octree tiles of

@@ -225,3 +225,33 @@ def test_attribute_options_choose_what_is_kept_and_its_rate(bumps, tmp_path):
         sspc.encode(cloud, None, attributes="color")
     with pytest.raises(ValueError, match="0..255"):
         sspc.PointCloud(cloud.positions, classification=np.full(len(cloud), 256))
+
+
+def test_coarse_levels_decode_resampled_unless_asked_for_the_stored_points(bumps):
+    # Level 9's grid is 3.6 spacings: a stored point stands for about a dozen of the source's.
+    model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, level=9))
+    m = model.info()["resample"]
+    assert 2 <= m <= 4
+    stored = model.decode_all(stored=True)
+    resampled = model.decode_all()
+    assert len(resampled) == m * m * len(stored)
+    # Each stored point's m² points follow it, within its grid cell and a step off its tangent
+    # plane: |offset| <= step * sqrt(1/2 + 1).
+    info = model.info()
+    step = 2 * info["patch_radius"] / 2 ** info["position_bits"]
+    near = resampled.positions.reshape(len(stored), m * m, 3) - stored.positions[:, None, :]
+    assert np.linalg.norm(near, axis=2).max() <= 1.23 * step
+    # Resampling restores the source's density: closer to it under the paper's PSNR.
+    assert sspc.eval(bumps, resampled)["psnr"] > sspc.eval(bumps, stored)["psnr"] + 1.0
+    k = model.patch_count // 2
+    assert len(model.decode_patch(k)) == m * m * len(model.decode_patch(k, stored=True))
+
+    off = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, level=9, resample="off"))
+    assert off.info()["resample"] == 0
+    np.testing.assert_array_equal(off.decode_all().positions, stored.positions)
+    two = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, level=9, resample=2))
+    assert two.info()["resample"] == 2
+    with pytest.raises(ValueError, match="resample"):
+        sspc.encode(bumps, None, level=9, resample=5)
+    with pytest.raises(ValueError, match="resample"):
+        sspc.encode(bumps, None, level=9, resample="always")

@@ -114,6 +114,9 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
   if (o.format_version < 2 || o.format_version > kFormatVersion) {
     return invalid_argument("the writer writes format versions 2 to 4, not " + std::to_string(o.format_version));
   }
+  if (o.resample < -1 || o.resample > kMaxResample || (o.resample > 0 && o.format_version < 4)) {
+    return invalid_argument("resample must be 0 to 4 (-1: chosen by the writer), and needs format version 4");
+  }
   if (o.patches_per_block == 0 || o.codewords_per_block == 0) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
   }
@@ -202,7 +205,7 @@ std::string encode_header(const ContainerHeader& h) {
   put_u8(out, static_cast<std::uint8_t>(h.position_bits));
   put_u8(out, static_cast<std::uint8_t>(h.normal_bits));
   put_u8(out, static_cast<std::uint8_t>(h.rotation_bits));
-  put_u8(out, 0);
+  put_u8(out, static_cast<std::uint8_t>(h.resample));
   put_u32(out, h.codeword_count);
   put_u32(out, h.patch_count);
   put_u64(out, h.codeword_point_count);
@@ -818,6 +821,16 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     block.status = compress_block(*raw, m.options.zstd_level, block);
   });
   for (const BuiltBlock& b : patches) SSPC_RETURN_IF_ERROR(b.status);
+  if (m.options.format_version < 4) {
+    h.resample = 0;
+  } else if (m.options.resample >= 0) {
+    h.resample = m.options.resample;
+  } else {
+    const double decoded = static_cast<double>(h.codeword_point_count) * static_cast<double>(h.patch_count) /
+                           static_cast<double>(std::max<std::uint32_t>(1, h.codeword_count));
+    const double step = static_cast<double>(position_step(h.patch_radius, h.position_bits));
+    h.resample = resample_for(h.source_points, decoded, step / static_cast<double>(h.spacing));
+  }
 
   // Sections 2–4 follow the code-book blocks.
   SectionWriter sections[kSectionCount];
@@ -847,6 +860,7 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     // The geometry alone is a file a reader decodes: the attributes are coded on what it decodes.
     ContainerHeader geometry = h;
     geometry.flags = static_cast<std::uint16_t>(h.flags & ~(kFlagMetadata | kFlagAttributes));
+    geometry.resample = 0;  // attributes are coded on the stored points; new points inherit them
     SSPC_RETURN_IF_ERROR(m.sink->write_at(0, encode_header(geometry)));
     if (!attribute_source) return invalid_argument("attributes asked for without a source");
     std::string part;
@@ -861,6 +875,7 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
   ContainerStats& stats = m.stats;
   stats.file_bytes = m.sink->size();
   stats.codeword_points = h.codeword_point_count;
+  stats.resample = h.resample;
   stats.header_bytes = kHeaderSize;
   stats.codebook_bytes = sections[0].size;
   stats.codebook_seek_bytes = sections[1].size;
@@ -887,6 +902,12 @@ Status check_attribute_source(const QuantOptions& o) {
 }
 
 }  // namespace
+
+int resample_for(std::uint64_t source_points, double decoded_points, double step_in_spacings) {
+  const double ratio = static_cast<double>(source_points) / std::max(decoded_points, 1.0);
+  if (!(ratio >= 1.5) || !(step_in_spacings > 1)) return 0;
+  return std::min(kMaxResample, static_cast<int>(std::ceil(std::sqrt(ratio))));
+}
 
 StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOptions& options, ContainerStats* stats) {
   SSPC_RETURN_IF_ERROR(check_attribute_source(options));

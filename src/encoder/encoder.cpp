@@ -150,6 +150,7 @@ ContainerChoice container_options(const EncodeOptions& options, const codec::Bui
   }
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;
+  quant.resample = options.resample;
   quant.attributes.channels = channels;
   quant.attributes.colour_step = colour_step_for_quality(options.colour_quality);
   quant.attributes.intensity_step = options.intensity_step;
@@ -188,6 +189,7 @@ void record_written(EncodeStats& stats, const codec::ContainerStats& written, co
   stats.codeword_points = written.codeword_points;
   stats.position_bits = choice.quant.position_bits;
   stats.position_step = static_cast<double>(choice.step);
+  stats.resample = written.resample;
   stats.spacing = build_stats.spacing;
   stats.patch_radius = build_stats.patch_radius;
   stats.coverage_radius = build_stats.coverage_radius;

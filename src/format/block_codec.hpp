@@ -15,6 +15,7 @@
 
 #include "format/container_format.hpp"
 #include "format/encoded_model.hpp"
+#include "format/resample.hpp"
 #include "sspc/status.hpp"
 
 namespace sspc::codec {
@@ -28,13 +29,21 @@ struct DecodedCodewords {
   std::vector<Vec3f> normals;          // empty without normals
   std::vector<Rgb8> colours;            // empty without colours
   std::vector<float> radius;           // per code word: sqrt(max norm2), 0 when empty
+  // Per code word when the header asks for resampling (ContainerReader::read_codewords),
+  // otherwise empty.
+  std::vector<CodewordSurface> surfaces;
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(radius.size()); }
   // The bytes it holds, as the model's block cache counts them.
   std::uint64_t memory_bytes() const {
     return sizeof(*this) + offsets.capacity() * sizeof(std::uint32_t) + points.capacity() * sizeof(Vec3f) +
            norm2.capacity() * sizeof(float) + normals.capacity() * sizeof(Vec3f) + colours.capacity() * sizeof(Rgb8) +
-           radius.capacity() * sizeof(float);
+           radius.capacity() * sizeof(float) + surface_bytes();
+  }
+  std::uint64_t surface_bytes() const {
+    std::uint64_t bytes = 0;
+    for (const CodewordSurface& s : surfaces) bytes += s.memory_bytes();
+    return bytes;
   }
 };
 

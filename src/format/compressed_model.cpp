@@ -20,6 +20,7 @@
 #include "format/attribute_coder.hpp"
 #include "format/block_index.hpp"
 #include "format/container_reader.hpp"
+#include "format/quantise.hpp"
 #include "format/region_decoder.hpp"
 
 namespace sspc {
@@ -89,6 +90,7 @@ struct CompressedModel::Impl {
   codec::ContainerReader reader;
   codec::BlockIndex index;
   float coordinate_scale = 0;  // largest |coordinate| of any block box: scales the search slack
+  float position_step = 0;     // the code words' grid step, which resampling spreads points over
   // The cache budget split: patch blocks get an eighth (a patch block is small, autzen level 5:
   // 64 patches, 7.4 KB, and a query needs its neighbours' blocks as well as its own).
   static constexpr std::uint64_t patch_share(std::uint64_t bytes) { return bytes / 8; }
@@ -106,6 +108,7 @@ struct CompressedModel::Impl {
           {coordinate_scale, e.box.min().cwiseAbs().maxCoeff(), e.box.max().cwiseAbs().maxCoeff()});
     }
     index = codec::BlockIndex(boxes);
+    position_step = codec::position_step(reader.header().patch_radius, reader.header().position_bits);
     return Status();
   }
 
@@ -113,7 +116,7 @@ struct CompressedModel::Impl {
   std::uint32_t patches_per_block() const { return reader.header().patches_per_block; }
   std::uint32_t codewords_per_block() const { return reader.header().codewords_per_block; }
 
-  Status decode_one(BlockSource& src, std::size_t k, bool overlap, const Box3f* clip,
+  Status decode_one(BlockSource& src, std::size_t k, const DecodeOptions& options, const Box3f* clip,
                     std::vector<codec::NeighbourInstance>& neighbours, PointCloud& out) const;
 };
 
@@ -160,8 +163,8 @@ void append_inside(PointCloud& dst, const PointCloud& src, const Box3f& box) {
 
 }  // namespace
 
-Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool overlap,
-                                         const Box3f* clip,
+Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k,
+                                         const DecodeOptions& options, const Box3f* clip,
                                          std::vector<codec::NeighbourInstance>& neighbours,
                                          PointCloud& out) const {
   std::shared_ptr<const DecodedPatches> own;
@@ -185,6 +188,8 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
   view.colours = words->colours.empty() ? nullptr : words->colours.data() + begin;
   view.size = end - begin;
 
+  const bool overlap = options.overlap;
+  const int resample = overlap || !options.resample ? 0 : reader.header().resample;
   neighbours.clear();
   if (!overlap) {
     const float threshold2 = codec::neighbour_threshold2(words->radius[w]);
@@ -205,7 +210,7 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
       }
     }
   }
-  if (own->attribute_streams.empty() || overlap) {
+  if ((own->attribute_streams.empty() || overlap) && resample == 0) {
     codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, overlap,
                       clip, out);
     return Status();
@@ -214,12 +219,18 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
   // "Attributes"): decode them for all of it, then clip.
   thread_local PointCloud part;
   thread_local codec::AttributeReferences refs;
+  thread_local std::vector<std::uint32_t> parents;
   part.positions.clear();
   part.normals.clear();
   part.colours.clear();
   part.las.clear();
   codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, false,
-                    nullptr, part);
+                    nullptr, part, resample > 0 ? &parents : nullptr);
+  if (own->attribute_streams.empty()) {
+    codec::emit_resampled(rotation, centre, words->surfaces[w], resample, position_step, part,
+                          parents, clip, out);
+    return Status();
+  }
   refs.find(part.positions);
   const codec::AttributeParams& params = reader.attributes();
   for (std::size_t bit = 0; bit < codec::kChannelCount; ++bit) {
@@ -230,6 +241,11 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k, bool o
     if (!s.ok()) {
       return Status(s.code(), reader.name() + ": patch " + std::to_string(k) + ": " + s.message());
     }
+  }
+  if (resample > 0) {
+    codec::emit_resampled(rotation, centre, words->surfaces[w], resample, position_step, part,
+                          parents, clip, out);
+    return Status();
   }
   if (clip != nullptr) {
     append_inside(out, part, *clip);
@@ -327,7 +343,7 @@ StatusOr<PointCloud> CompressedModel::decode_patch(std::size_t k,
   CachedSource src = impl_->cached();
   PointCloud out;
   thread_local std::vector<codec::NeighbourInstance> neighbours;
-  SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options.overlap, nullptr, neighbours, out));
+  SSPC_RETURN_IF_ERROR(impl_->decode_one(src, k, options, nullptr, neighbours, out));
   if (options.patch_of != nullptr) options.patch_of->assign(out.size(), static_cast<std::uint32_t>(k));
   return placed(std::move(out));
 }
@@ -358,7 +374,7 @@ StatusOr<PointCloud> CompressedModel::decode_box(const Box3f& box,
     for (std::uint32_t i = 0; i < block->count(); ++i) {
       if (box.squaredExteriorDistance(block->centre[i]) > reach2) continue;
       SSPC_RETURN_IF_ERROR(
-          impl_->decode_one(src, block->first + i, options.overlap, &box, neighbours, out));
+          impl_->decode_one(src, block->first + i, options, &box, neighbours, out));
       if (options.patch_of != nullptr) options.patch_of->resize(out.size(), block->first + i);
     }
     progress_advance(options.progress, 1);
@@ -453,7 +469,7 @@ Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::funct
       const DecodedPatches& block = *shared.patch_blocks[b];
       PointCloud& part = parts[b - first];
       for (std::uint32_t i = 0; i < block.count(); ++i) {
-        Status s = impl_->decode_one(shared, block.first + i, options.overlap, nullptr, neighbours, part);
+        Status s = impl_->decode_one(shared, block.first + i, options, nullptr, neighbours, part);
         if (!s.ok()) {
           status[b - first] = s;
           return;
@@ -567,6 +583,7 @@ ModelInfo CompressedModel::info() const {
   m.normal_bits = h.normal_bits;
   m.rotation_bits = h.rotation_bits;
   m.translation_step = h.translation_step;
+  m.resample = h.resample;
   m.patches = h.patch_count;
   m.codewords = h.codeword_count;
   m.codeword_points = h.codeword_point_count;

@@ -96,6 +96,9 @@ struct ContainerHeader {
   int position_bits = 12;
   int normal_bits = 10;
   int rotation_bits = 13;
+  // Version 4: the decoder replaces each decoded point by resample × resample points on its
+  // code word's local surface (FORMAT.md, "Resampling"); 0: the points as stored.
+  int resample = 0;
   std::uint32_t codeword_count = 0;
   std::uint32_t patch_count = 0;
   std::uint64_t codeword_point_count = 0;

@@ -12,6 +12,7 @@
 
 #include "core/byte_reader.hpp"
 #include "format/checksum.hpp"
+#include "format/resample.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -138,7 +139,9 @@ Status read_header_fields(const std::byte* p, std::uint16_t version, const Failu
   if (h.rotation_bits < kMinRotationBits || h.rotation_bits > kMaxRotationBits) {
     return fail(70, "rotation_bits out of range");
   }
-  if (p[71] != std::byte{0}) return fail(71, "reserved byte is not 0");
+  h.resample = static_cast<int>(p[71]);
+  if (h.version < 4 && h.resample != 0) return fail(71, "reserved byte is not 0");
+  if (h.resample > kMaxResample) return fail(71, "resample out of range");
   if (h.codewords_per_block == 0) return fail(88, "codewords_per_block is 0");
   if (h.patches_per_block == 0) return fail(92, "patches_per_block is 0");
   return Status();
@@ -447,6 +450,7 @@ Status ContainerReader::load_block(SectionKind kind, std::size_t block, const Bl
 
 Status ContainerReader::read_codewords(std::size_t block, DecodedCodewords& out) const {
   if (block >= codebook_blocks_.size()) return invalid_argument("code-book block out of range");
+  out.surfaces.clear();  // they point into the points the decode replaces
   const BlockEntry& entry = codebook_blocks_[block];
   thread_local std::vector<std::byte> scratch;
   std::span<const std::byte> payload;
@@ -458,6 +462,13 @@ Status ContainerReader::read_codewords(std::size_t block, DecodedCodewords& out)
       return block_error(SectionKind::kCodebookBlocks, block, entry,
                          corrupt("code word " + std::to_string(entry.first + c) +
                                  " reaches beyond the header's codeword_radius"));
+    }
+  }
+  if (header_.resample > 0) {
+    out.surfaces.reserve(out.count());
+    for (std::uint32_t c = 0; c < out.count(); ++c) {
+      out.surfaces.emplace_back(std::span<const Vec3f>(out.points.data() + out.offsets[c],
+                                                       out.offsets[c + 1] - out.offsets[c]));
     }
   }
   return Status();

@@ -53,8 +53,9 @@ void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const V
 
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
                 const CodewordView& cw, std::span<const NeighbourInstance> neighbours, bool overlap,
-                const Box3f* clip, PointCloud& out) {
+                const Box3f* clip, PointCloud& out, std::vector<std::uint32_t>* parents) {
   thread_local RegionTest region;
+  if (parents != nullptr) parents->clear();
   if (!overlap) region.reset(k, rotation, centre, neighbours);
   const bool normals = cw.normals != nullptr;
   const bool colours = cw.colours != nullptr;
@@ -79,11 +80,43 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
     out.positions[kept] = p;
     if (normals) out.normals[kept] = rotate(rotation, cw.normals[i]);
     if (colours) out.colours[kept] = cw.colours[i];
+    if (parents != nullptr) parents->push_back(static_cast<std::uint32_t>(i));
     ++kept;
   }
   out.positions.resize(kept);
   if (normals) out.normals.resize(kept);
   if (colours) out.colours.resize(kept);
+}
+
+void emit_resampled(const Eigen::Matrix3f& rotation, const Vec3f& centre,
+                    const CodewordSurface& surface, int m, float step, const PointCloud& part,
+                    std::span<const std::uint32_t> parents, const Box3f* clip, PointCloud& out) {
+  thread_local std::vector<Vec3f> points, normals;
+  const bool with_normals = !part.normals.empty();
+  const bool with_colours = !part.colours.empty();
+  const LasPointAttributes& las = part.las;
+  LasPointAttributes& to = out.las;
+  const std::size_t per = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
+  reserve_more(out.positions, per * parents.size());
+  for (std::size_t j = 0; j < parents.size(); ++j) {
+    points.clear();
+    normals.clear();
+    surface.resample(parents[j], m, step, points, normals);
+    for (std::size_t s = 0; s < points.size(); ++s) {
+      const Vec3f p = transform_point(rotation, points[s], centre);
+      if (clip != nullptr && !clip->contains(p)) continue;
+      out.positions.push_back(p);
+      if (with_normals) {
+        const Vec3f n = rotate(rotation, normals[s]);
+        out.normals.push_back(n.dot(part.normals[j]) < 0 ? Vec3f(-n) : n);
+      }
+      if (with_colours) out.colours.push_back(part.colours[j]);
+      if (!las.intensity.empty()) to.intensity.push_back(las.intensity[j]);
+      if (!las.classification.empty()) to.classification.push_back(las.classification[j]);
+      if (!las.return_number.empty()) to.return_number.push_back(las.return_number[j]);
+      if (!las.number_of_returns.empty()) to.number_of_returns.push_back(las.number_of_returns[j]);
+    }
+  }
 }
 
 }  // namespace sspc::codec

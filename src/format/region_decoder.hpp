@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "format/resample.hpp"
 #include "sspc/point_cloud.hpp"
 
 namespace sspc::codec {
@@ -68,7 +69,16 @@ class RegionTest {
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rotation,
                 const Vec3f& centre, const CodewordView& codeword,
                 std::span<const NeighbourInstance> neighbours, bool overlap, const Box3f* clip,
-                PointCloud& out);
+                PointCloud& out, std::vector<std::uint32_t>* parents = nullptr);
+
+// Resampling (FORMAT.md, "Resampling"): appends to `out` the m × m points that stand for each
+// point j of `part`, patch k's points as emit_patch gave them (with every attribute decoded)
+// from code-word points `parents`, in order; each new point carries its parent's attributes
+// and, when `part` has normals, the fit's normal turned to agree with its parent's. `clip`, when
+// not null, drops new points outside it.
+void emit_resampled(const Eigen::Matrix3f& world_from_codeword_rotation, const Vec3f& centre,
+                    const CodewordSurface& surface, int m, float step, const PointCloud& part,
+                    std::span<const std::uint32_t> parents, const Box3f* clip, PointCloud& out);
 
 // Inline: called for every code-word point a patch decodes (out of line, one patch of
 // dragon_scans decoded in 11.2 us instead of 10.7, interleaved decode_bench runs).
