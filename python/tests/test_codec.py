@@ -255,3 +255,13 @@ def test_coarse_levels_decode_resampled_unless_asked_for_the_stored_points(bumps
         sspc.encode(bumps, None, level=9, resample=5)
     with pytest.raises(ValueError, match="resample"):
         sspc.encode(bumps, None, level=9, resample="always")
+
+
+def test_resampled_points_inherit_their_stored_point_attributes(bumps):
+    model = sspc.CompressedModel.from_bytes(sspc.encode(_attributed(bumps), None, level=9))
+    m2 = model.info()["resample"] ** 2
+    assert m2 >= 4
+    stored, resampled = model.decode_all(stored=True), model.decode_all()
+    assert len(resampled) == m2 * len(stored)
+    for name in ("colours", "intensity", "classification", "return_number", "number_of_returns"):
+        np.testing.assert_array_equal(np.repeat(getattr(stored, name), m2, axis=0), getattr(resampled, name))
