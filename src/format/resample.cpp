@@ -34,7 +34,8 @@ void CodewordSurface::resample(std::uint32_t i, int m, float step, std::vector<V
   }
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
   if (count >= 3) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(cov);
     if (eig.info() == Eigen::Success && eig.eigenvectors().allFinite()) n = eig.eigenvectors().col(0).normalized();
   }
   const double sign = n.z() != 0 ? n.z() : n.x() != 0 ? n.x() : n.y();
