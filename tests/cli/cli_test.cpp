@@ -205,6 +205,37 @@ TEST(Cli, EncodeDecodeRoundTrip) {
   EXPECT_EQ(sspc(dir, "encode " + bunny() + " " + one + " --level 10").exit_code, 2);
 }
 
+// A coarse level decodes resampled (docs/FORMAT.md, "Resampling"): `info` names it, `decode`
+// writes m² points a stored point, `--stored` the points as stored, `--resample off` a file
+// that asks for none and decodes to those same points.
+TEST(Cli, CoarseLevelsDecodeResampledUnlessAskedNotTo) {
+  test::TempDir dir;
+  const std::string input = small_bunny(dir);
+  const std::string model = (dir.path() / "l9.sspc").string();
+  const std::string off = (dir.path() / "off.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode " + input + " " + model + " --level 9").exit_code, 0);
+  ASSERT_EQ(sspc(dir, "encode " + input + " " + off + " --level 9 --resample off").exit_code, 0);
+  const CliRun info = sspc(dir, "info --json " + model);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  const int m = nlohmann::json::parse(info.out)["resample"].get<int>();
+  EXPECT_GE(m, 2);
+  EXPECT_EQ(nlohmann::json::parse(sspc(dir, "info --json " + off).out)["resample"].get<int>(), 0);
+
+  const auto decoded = [&](const std::string& file, const std::string& options) {
+    const std::string out = (dir.path() / "decoded.ply").string();
+    EXPECT_EQ(sspc(dir, "decode -f " + file + " " + out + options).exit_code, 0);
+    auto cloud = read_point_cloud(out);
+    EXPECT_TRUE(cloud.ok());
+    return cloud.ok() ? std::move(cloud).value() : PointCloud();
+  };
+  const PointCloud resampled = decoded(model, "");
+  const PointCloud stored = decoded(model, " --stored");
+  ASSERT_GT(stored.size(), 0u);
+  EXPECT_EQ(resampled.size(), static_cast<std::size_t>(m * m) * stored.size());
+  EXPECT_EQ(decoded(off, "").positions, stored.positions);
+  EXPECT_EQ(sspc(dir, "encode -f " + input + " " + off + " --resample 5").exit_code, 2);
+}
+
 // encode never overwrites its input, not even with --force or through a hard link, and an
 // existing output only with --force; decode likewise refuses to write over its input.
 TEST(Cli, EncodeRefusesToOverwriteItsInputOrAnExistingOutput) {
