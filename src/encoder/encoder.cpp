@@ -146,7 +146,7 @@ ContainerChoice container_options(const EncodeOptions& options, const codec::Bui
   } else {
     choice.step = static_cast<float>(static_cast<double>(build.level.position_step) * build_stats.spacing);
     quant.position_step = choice.step;
-    quant.position_bits = codec::position_bits_for_step(radius, choice.step);
+    quant.position_bits = codec::position_bits_for_step(static_cast<double>(radius), static_cast<double>(choice.step));
   }
   quant.trim_unclaimed = !options.full_spheres;
   quant.keep_duplicates = options.keep_duplicates;

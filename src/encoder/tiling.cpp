@@ -11,9 +11,9 @@ std::uint32_t TilePlan::cell_of(const Vec3f& p) const {
   const int n = 1 << depth;
   std::uint32_t index = 0;
   for (int a = 2; a >= 0; --a) {
-    const double lo = bounds.min()[a], extent = double{bounds.max()[a]} - lo;
+    const double lo = static_cast<double>(bounds.min()[a]), extent = static_cast<double>(bounds.max()[a]) - lo;
     int i = 0;
-    if (extent > 0) i = static_cast<int>(std::floor((double{p[a]} - lo) / extent * n));
+    if (extent > 0) i = static_cast<int>(std::floor((static_cast<double>(p[a]) - lo) / extent * n));
     index = (index << depth) | static_cast<std::uint32_t>(std::clamp(i, 0, n - 1));
   }
   return index;
@@ -56,7 +56,8 @@ struct Splitter {
     Vec3f lo, hi;
     for (std::size_t a = 0; a < 3; ++a) {
       const auto axis = static_cast<Eigen::Index>(a);
-      const double min = plan.bounds.min()[axis], extent = double{plan.bounds.max()[axis]} - min;
+      const double min = static_cast<double>(plan.bounds.min()[axis]),
+                   extent = static_cast<double>(plan.bounds.max()[axis]) - min;
       lo[axis] = static_cast<float>(min + extent * r.lo[a] / side);
       hi[axis] = r.hi[a] == side ? plan.bounds.max()[axis] : static_cast<float>(min + extent * r.hi[a] / side);
     }
@@ -72,7 +73,7 @@ struct Splitter {
     for (std::size_t a = 0; a < 3; ++a) {
       const auto e = static_cast<Eigen::Index>(a);
       const double extent =
-          (double{plan.bounds.max()[e]} - double{plan.bounds.min()[e]}) * (r.hi[a] - r.lo[a]);
+          (static_cast<double>(plan.bounds.max()[e]) - static_cast<double>(plan.bounds.min()[e])) * (r.hi[a] - r.lo[a]);
       if (r.hi[a] - r.lo[a] > 1 && (axis < 0 || extent > longest)) {
         axis = static_cast<int>(a);
         longest = extent;

@@ -65,7 +65,7 @@ std::int64_t det3(std::int64_t a, std::int64_t b, std::int64_t c, std::int64_t d
 class Rows {
  public:
   explicit Rows(std::uint32_t width)
-      : width_(width), padded_(static_cast<std::size_t>(width) + 2 * kPad), zero_occupied_(padded_, 0),
+      : padded_(static_cast<std::size_t>(width) + 2 * kPad), zero_occupied_(padded_, 0),
         zero_lowest_(padded_, 0), zero_least_(padded_, kNone) {
     for (auto& row : occupied_) row.assign(padded_, 0);
     for (auto& row : lowest_) row.assign(padded_, 0);
@@ -147,6 +147,8 @@ class Rows {
 
  private:
   static constexpr std::int32_t kNone = 0x7FFFFFFF;
+  // The window's rows and the current one, in a ring of kWindowRows + 1 = 4 slots.
+  static_assert(kWindowRows + 1 == 4, "slot() masks the row with 3");
   static std::size_t slot(std::int64_t row) { return static_cast<std::size_t>(row & 3); }
   // Row `row`'s lowest heights from column −kPad, kNone where a column is empty.
   const std::int32_t* least_row(std::int64_t row) const {
@@ -180,7 +182,6 @@ class Rows {
       hi[c] = z12 > z3[c] ? z12 : z3[c];
     }
   }
-  std::uint32_t width_;
   std::size_t padded_;
   std::vector<std::uint8_t> zero_occupied_;
   std::vector<std::int32_t> zero_lowest_, zero_least_;

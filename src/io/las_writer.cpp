@@ -157,7 +157,7 @@ Status LasEncoder::choose_grid(const LasWriteOptions& options) {
   const auto fits = [&](const Vec3d& offset) {
     if (box.isEmpty()) return true;
     for (int k = 0; k < 3; ++k) {
-      for (const double local : {double{box.min()[k]}, double{box.max()[k]}}) {
+      for (const double local : {static_cast<double>(box.min()[k]), static_cast<double>(box.max()[k])}) {
         const double x = (c.origin[k] - offset[k]) / scale_[k] + local / scale_[k];
         if (!(std::abs(x) < 2147483647.0)) return false;
       }
@@ -182,7 +182,7 @@ Status LasEncoder::choose_grid(const LasWriteOptions& options) {
   world_max_ = -world_min_;
   for (std::size_t i = 0; i < c.size(); ++i) {
     for (int k = 0; k < 3; ++k) {
-      const double x = std::round(anchor_[k] + double{c.positions[i][k]} / scale_[k]);
+      const double x = std::round(anchor_[k] + static_cast<double>(c.positions[i][k]) / scale_[k]);
       integers_[i][static_cast<std::size_t>(k)] = static_cast<std::int32_t>(x);
       const double w = offset_[k] + scale_[k] * x;
       world_min_[k] = std::min(world_min_[k], w);
@@ -270,7 +270,7 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
   const unsigned cls = value_or<std::uint8_t>(a.classification, i, 0);
   const unsigned cls_flags = value_or<std::uint8_t>(a.classification_flags, i, 0);
   const unsigned scan = value_or<std::uint8_t>(a.scan_flags, i, 0);
-  const double angle = value_or<float>(a.scan_angle, i, 0.0f);
+  const double angle = static_cast<double>(value_or<float>(a.scan_angle, i, 0.0f));
   if (!l.extended) {
     r[14] = std::byte(
         static_cast<std::uint8_t>((ret & 7u) | ((returns & 7u) << 3) | ((scan & 3u) << 6)));
