@@ -55,7 +55,7 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   progress_stages(progress.get(), 1);
   DecodeOptions options;
   options.overlap = o.overlap;
-  options.resample = !o.stored;
+  options.resample = o.stored ? 0 : -1;
   options.progress = progress.get();
 
   PlyWriteOptions ply;

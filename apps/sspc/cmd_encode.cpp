@@ -262,8 +262,8 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
                 "Store every point, also several in one cell of the code words' grid (by default a cell keeps one)");
   app->add_option("--resample", o->resample,
                   "Decoded points a stored point stands for, per side, on its code word's surface "
-                  "(docs/FORMAT.md, \"Resampling\"): auto (where the decode would hold under two "
-                  "thirds of the source's points), off, or 1-4")
+                  "(docs/FORMAT.md, \"Resampling\"): auto (the m that decodes closest to the input, "
+                  "measured on a sample of patches), off, or 1-4")
       ->check(CLI::IsMember({"auto", "off", "1", "2", "3", "4"}).description(""))
       ->type_name("auto|off|1..4")
       ->capture_default_str();

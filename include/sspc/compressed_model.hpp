@@ -37,11 +37,11 @@ struct DecodeOptions {
   // returned cloud (what a renderer needs to colour points by code word, and what a user needs
   // to tell instances apart).
   std::vector<std::uint32_t>* patch_of = nullptr;
-  // Whether a model whose header asks for it (ModelInfo::resample > 0) is decoded resampled:
-  // each point replaced by resample × resample points on its code word's local surface, about
-  // the source's count (docs/FORMAT.md, "Resampling"). false: the points as stored. Ignored
-  // with `overlap`.
-  bool resample = true;
+  // Resampling (docs/FORMAT.md, "Resampling"): each point replaced by m × m points on its code
+  // word's local surface. -1: the m the header asks for (ModelInfo::resample; 0 where it asks
+  // for none); 0: the points as stored; 1-4: that m, whatever the header asks. Ignored with
+  // `overlap`.
+  int resample = -1;
 };
 
 // Patch k as stored: its code word and the transform world_from_codeword (x ↦ R x + t); t is

@@ -48,8 +48,9 @@ struct EncodeOptions {
   // paper's PSNR barely moves (≤ 0.06 dB) while coarse levels lose 20–30% of their points.
   bool keep_duplicates = false;
   // Whether the decoder resamples each decoded point on its code word's surface, m × m points
-  // for one (docs/FORMAT.md, "Resampling"): -1 lets the writer choose (where the decode would
-  // hold under two thirds of the source's points: the coarse levels), 0 never, 1-4 that m.
+  // for one (docs/FORMAT.md, "Resampling"): -1 lets the writer choose, by measuring which m
+  // decodes closest to the source around a sample of patches (0 at the fine levels, where it
+  // never pays), 0 never, 1-4 that m. A decoder may still ask for another (DecodeOptions).
   int resample = -1;
   // The attributes to keep, of those the cloud has (kAttribute* bits); the others are dropped.
   unsigned attributes = kAllAttributes;

@@ -321,7 +321,7 @@ CompressedModel from_buffer(const py::buffer& buffer) {
 DecodeOptions decode_options(bool overlap, bool stored) {
   DecodeOptions options;
   options.overlap = overlap;
-  options.resample = !stored;
+  options.resample = stored ? 0 : -1;
   return options;
 }
 
@@ -474,7 +474,7 @@ single fields of the level;
 store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
 keep_duplicates stores every point, also several in one cell of the code words' grid;
 resample ('auto', 'off' or 1..4) asks the decoder to replace each decoded point by m × m points on
-its code word's surface (docs/FORMAT.md, "Resampling"; 'auto': at the coarse levels);
+its code word's surface (docs/FORMAT.md, "Resampling"; 'auto': the m that decodes closest to the cloud, measured on a sample of patches);
 attributes ('all', 'none', or names among colour, intensity, classification, returns) chooses the
 per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
 intensity_step 1..4096 (1: lossless) set their rates; tile_points > 0 encodes in octree tiles of

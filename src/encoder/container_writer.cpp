@@ -22,6 +22,7 @@
 #include "core/parallel.hpp"
 #include "core/varint.hpp"
 #include "encoder/codeword_trim.hpp"
+#include "encoder/resample_choice.hpp"
 #include "format/block_codec.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
@@ -428,6 +429,7 @@ struct ContainerStreamWriter::Impl {
   Status write_ready_tiles();
   Status write_codebook_blocks(bool last);
   StatusOr<std::string> attribute_part(CompressedModel& geometry, const TileSource& source);
+  StatusOr<int> measured_resample(const CompressedModel& geometry, const TileSource& source, int rule, int max_m);
 };
 
 ContainerStreamWriter::ContainerStreamWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -786,6 +788,34 @@ StatusOr<std::string> ContainerStreamWriter::Impl::attribute_part(CompressedMode
   return out;
 }
 
+// Samples kResampleSamples patch centres from up to four tiles (their sources read once each)
+// and measures the candidates 0..max_m there; `rule` stands where a tile has no source.
+StatusOr<int> ContainerStreamWriter::Impl::measured_resample(const CompressedModel& geometry,
+                                                              const TileSource& source, int rule, int max_m) {
+  std::vector<std::size_t> with_patches;
+  for (std::size_t t = 0; t + 1 < tile_first_patch.size(); ++t) {
+    if (tile_first_patch[t] < tile_first_patch[t + 1]) with_patches.push_back(t);
+  }
+  const std::size_t tiles = std::min<std::size_t>(with_patches.size(), 4);
+  if (tiles == 0) return rule;
+  std::vector<DistortionSample> samples(tiles);
+  for (std::size_t i = 0; i < tiles; ++i) {
+    const std::size_t t = with_patches[(2 * i + 1) * with_patches.size() / (2 * tiles)];
+    SSPC_RETURN_IF_ERROR(source(t, samples[i].source));
+    if (samples[i].source == nullptr) return rule;
+    const std::size_t first = tile_first_patch[t], n = tile_first_patch[t + 1] - first;
+    const std::size_t count = std::min(n, kResampleSamples / tiles);
+    for (std::size_t j = 0; j < count; ++j) {
+      samples[i].centres.push_back(patches[first + (2 * j + 1) * n / (2 * count)].region_centre());
+    }
+  }
+  // A sphere of some 800 source points, or the region a centre covers where that is smaller.
+  const float radius = h.spacing > 0 ? std::min(h.coverage_radius, 16 * h.spacing) : h.coverage_radius;
+  if (!(radius > 0)) return rule;
+  SSPC_ASSIGN_OR_RETURN(const ResampleMeasurement measured, measure_resample(geometry, samples, radius, max_m));
+  return measured.chosen;
+}
+
 StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribute_source) {
   Impl& m = *impl_;
   if (m.finished) return internal_error("ContainerStreamWriter::finish twice");
@@ -821,6 +851,11 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     block.status = compress_block(*raw, m.options.zstd_level, block);
   });
   for (const BuiltBlock& b : patches) SSPC_RETURN_IF_ERROR(b.status);
+  // The resample byte: as asked; else by the count rule, then, where the source is at hand
+  // and the grid is at least half a spacing, by measurement (resample_choice.hpp) once the
+  // geometry can be decoded.
+  bool measure = false;
+  int max_m = 0;
   if (m.options.format_version < 4) {
     h.resample = 0;
   } else if (m.options.resample >= 0) {
@@ -829,7 +864,10 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     const double decoded = static_cast<double>(h.codeword_point_count) * static_cast<double>(h.patch_count) /
                            static_cast<double>(std::max<std::uint32_t>(1, h.codeword_count));
     const double step = static_cast<double>(position_step(h.patch_radius, h.position_bits));
-    h.resample = resample_for(h.source_points, decoded, step / static_cast<double>(h.spacing));
+    const double step_in_spacings = step / static_cast<double>(h.spacing);
+    h.resample = resample_for(h.source_points, decoded, step_in_spacings);
+    measure = static_cast<bool>(attribute_source) && step_in_spacings >= kMeasuredResampleStep;
+    max_m = std::max(h.resample, 1);
   }
 
   // Sections 2–4 follow the code-book blocks.
@@ -856,17 +894,24 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     s.crc32 = sections[i].crc;
   }
 
-  if (m.options.attributes.channels != 0) {
-    // The geometry alone is a file a reader decodes: the attributes are coded on what it decodes.
+  const bool attributes = m.options.attributes.channels != 0;
+  if (attributes || measure) {
+    // The geometry alone is a file a reader decodes: the attributes are coded on what it
+    // decodes, and the resampling measured on it.
     ContainerHeader geometry = h;
     geometry.flags = static_cast<std::uint16_t>(h.flags & ~(kFlagMetadata | kFlagAttributes));
     geometry.resample = 0;  // attributes are coded on the stored points; new points inherit them
     SSPC_RETURN_IF_ERROR(m.sink->write_at(0, encode_header(geometry)));
-    if (!attribute_source) return invalid_argument("attributes asked for without a source");
+    if (attributes && !attribute_source) return invalid_argument("attributes asked for without a source");
     std::string part;
     {
       SSPC_ASSIGN_OR_RETURN(CompressedModel model, m.sink->open_model());
-      SSPC_ASSIGN_OR_RETURN(part, m.attribute_part(model, attribute_source));
+      if (measure) {
+        SSPC_ASSIGN_OR_RETURN(h.resample, m.measured_resample(model, attribute_source, h.resample, max_m));
+      }
+      if (attributes) {
+        SSPC_ASSIGN_OR_RETURN(part, m.attribute_part(model, attribute_source));
+      }
     }
     SSPC_RETURN_IF_ERROR(m.sink->append(part));
   }

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "core/check.hpp"
@@ -189,7 +190,9 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k,
   view.size = end - begin;
 
   const bool overlap = options.overlap;
-  const int resample = overlap || !options.resample ? 0 : reader.header().resample;
+  const int resample = overlap                 ? 0
+                       : options.resample < 0 ? reader.header().resample
+                                              : std::min(options.resample, codec::kMaxResample);
   neighbours.clear();
   if (!overlap) {
     const float threshold2 = codec::neighbour_threshold2(words->radius[w]);
@@ -226,9 +229,17 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k,
   part.las.clear();
   codec::emit_patch(static_cast<std::uint32_t>(k), rotation, centre, view, neighbours, false,
                     nullptr, part, resample > 0 ? &parents : nullptr);
+  // The code word's surface: the block's, built as it was decoded where the header asks for
+  // resampling, else one for this call (a decode that asks for another m than the header's).
+  std::optional<codec::CodewordSurface> own_surface;
+  const auto emit_resampled = [&] {
+    const codec::CodewordSurface& surface =
+        words->surfaces.empty() ? own_surface.emplace(std::span<const Vec3f>(view.points, view.size))
+                                : words->surfaces[w];
+    codec::emit_resampled(rotation, centre, surface, resample, position_step, part, parents, clip, out);
+  };
   if (own->attribute_streams.empty()) {
-    codec::emit_resampled(rotation, centre, words->surfaces[w], resample, position_step, part,
-                          parents, clip, out);
+    emit_resampled();
     return Status();
   }
   refs.find(part.positions);
@@ -243,8 +254,7 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k,
     }
   }
   if (resample > 0) {
-    codec::emit_resampled(rotation, centre, words->surfaces[w], resample, position_step, part,
-                          parents, clip, out);
+    emit_resampled();
     return Status();
   }
   if (clip != nullptr) {

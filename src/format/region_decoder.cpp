@@ -97,8 +97,12 @@ void emit_resampled(const Eigen::Matrix3f& rotation, const Vec3f& centre,
   const LasPointAttributes& las = part.las;
   LasPointAttributes& to = out.las;
   const std::size_t per = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
-  reserve_more(out.positions, per * parents.size());
+  if (clip == nullptr) reserve_more(out.positions, per * parents.size());
+  // A new point lies within step · sqrt(1/2 + 1) < 1.25 steps of its parent (within its cell
+  // across, at most a step off the tangent plane): a parent farther from the box has none in it.
+  const float reach2 = (1.25f * step) * (1.25f * step);
   for (std::size_t j = 0; j < parents.size(); ++j) {
+    if (clip != nullptr && clip->squaredExteriorDistance(part.positions[j]) > reach2) continue;
     points.clear();
     normals.clear();
     surface.resample(parents[j], m, step, points, normals);

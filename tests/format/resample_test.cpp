@@ -172,7 +172,7 @@ TEST(Resample, WholePatchAndBoxDecodesAgree) {
 
   // Decoded as stored on request, the same points as a file that asks for none.
   DecodeOptions plain;
-  plain.resample = false;
+  plain.resample = 0;
   auto without = model.decode_all(plain);
   ASSERT_TRUE(without.ok());
   EXPECT_TRUE(without->positions == as_stored->positions);
