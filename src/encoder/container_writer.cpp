@@ -798,22 +798,22 @@ StatusOr<int> ContainerStreamWriter::Impl::measured_resample(const CompressedMod
   }
   const std::size_t tiles = std::min<std::size_t>(with_patches.size(), 4);
   if (tiles == 0) return rule;
-  std::vector<DistortionSample> samples(tiles);
-  for (std::size_t i = 0; i < tiles; ++i) {
-    const std::size_t t = with_patches[(2 * i + 1) * with_patches.size() / (2 * tiles)];
-    SSPC_RETURN_IF_ERROR(source(t, samples[i].source));
-    if (samples[i].source == nullptr) return rule;
-    const std::size_t first = tile_first_patch[t], n = tile_first_patch[t + 1] - first;
-    const std::size_t count = std::min(n, kResampleSamples / tiles);
-    for (std::size_t j = 0; j < count; ++j) {
-      samples[i].centres.push_back(patches[first + (2 * j + 1) * n / (2 * count)].region_centre());
-    }
-  }
   // A sphere of some 800 source points, or the region a centre covers where that is smaller.
   const float radius = h.spacing > 0 ? std::min(h.coverage_radius, 16 * h.spacing) : h.coverage_radius;
   if (!(radius > 0)) return rule;
-  SSPC_ASSIGN_OR_RETURN(const ResampleMeasurement measured, measure_resample(geometry, samples, radius, max_m));
-  return measured.chosen;
+  ResampleMeter meter(geometry, radius, max_m);
+  for (std::size_t i = 0; i < tiles; ++i) {
+    const std::size_t t = with_patches[(2 * i + 1) * with_patches.size() / (2 * tiles)];
+    std::shared_ptr<const PointCloud> cloud;
+    SSPC_RETURN_IF_ERROR(source(t, cloud));
+    if (cloud == nullptr) return rule;
+    const std::size_t first = tile_first_patch[t], n = tile_first_patch[t + 1] - first;
+    const std::size_t count = std::min(n, kResampleSamples / tiles);
+    std::vector<Vec3f> centres;
+    for (std::size_t j = 0; j < count; ++j) centres.push_back(patches[first + (2 * j + 1) * n / (2 * count)].region_centre());
+    SSPC_RETURN_IF_ERROR(meter.add(*cloud, centres));
+  }
+  return meter.chosen();
 }
 
 StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribute_source) {

@@ -8,7 +8,7 @@
 // fitted surface merges. A count rule (resample_for) cannot tell them apart; the source can.
 #pragma once
 
-#include <memory>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -18,25 +18,33 @@
 
 namespace sspc::codec {
 
-// Points of the source near some of the model's patch centres: a tile's cloud (with the
-// margin of its neighbours' points a tiled encode gives it) and the centres to measure in it.
-struct DistortionSample {
-  std::shared_ptr<const PointCloud> source;
-  std::vector<Vec3f> centres;
-};
+// What the paper's error of each candidate m ∈ [0, max_m] comes to, as the mean squared
+// distance of the worse direction (source to decoded, decoded to source) over spheres of
+// `radius` around sampled centres, `geometry` decoded with DecodeOptions::resample = m. Fed one
+// source at a time (a tile of a tiled encode, with the margin of its neighbours' points), so
+// that no more than one is held.
+class ResampleMeter {
+ public:
+  ResampleMeter(const CompressedModel& geometry, float radius, int max_m);
 
-// What the paper's error of each candidate m ∈ [0, max_m] came to, as mean squared distances
-// of the worse direction (source to decoded, decoded to source), over the spheres of `radius`
-// around the centres; `geometry` is decoded with DecodeOptions::resample = m.
-struct ResampleMeasurement {
-  std::vector<double> error;  // per m; +inf where nothing was measured
-  int chosen = 0;
-};
+  // Measures the spheres around `centres` against `source`.
+  Status add(const PointCloud& source, std::span<const Vec3f> centres);
 
-// The m the header should ask for: the candidate of least error, if it is at least 2% (about
-// 0.09 dB) below that of the points as stored; 0 otherwise, or when no sample holds points.
-StatusOr<ResampleMeasurement> measure_resample(const CompressedModel& geometry,
-                                               std::span<const DistortionSample> samples, float radius,
-                                               int max_m);
+  // Per m: +inf where nothing was measured.
+  std::vector<double> errors() const;
+  // The m the header should ask for: the candidate of least error, if it is at least 2% (about
+  // 0.09 dB) below that of the points as stored; 0 otherwise, or when no sphere held points.
+  int chosen() const;
+
+ private:
+  struct Sums {
+    double to_decoded = 0, to_source = 0;
+    std::uint64_t source_points = 0, decoded_points = 0;
+  };
+  const CompressedModel& geometry_;
+  float radius_;
+  std::size_t candidates_;
+  std::vector<Sums> totals_;
+};
 
 }  // namespace sspc::codec
