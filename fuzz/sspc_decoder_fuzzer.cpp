@@ -7,7 +7,8 @@
 // - verify() passing means decode_all() succeeds and yields a valid cloud;
 // - the patches decoded one at a time, in file order and again in a scrambled order on a
 //   fresh model (a cold cache), concatenate to decode_all();
-// - decode_box() of a box gives exactly decode_all()'s points inside it.
+// - decode_box() of a box gives exactly decode_all()'s points inside it;
+// - a resampled decode holds m² points a stored point, for the header's m and another.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -53,6 +54,18 @@ void check_model(const std::string& bytes) {
     return;
   }
   SSPC_FUZZ_CHECK(all->validate().ok());
+  // Resampling (FORMAT.md, "Resampling"): m × m points a stored point, for the header's m and
+  // for another a decoder asks for.
+  sspc::DecodeOptions stored_options, other_options;
+  stored_options.resample = 0;
+  other_options.resample = info.resample == 0 ? 2 : 0;
+  auto stored = model.decode_all(stored_options);
+  SSPC_FUZZ_CHECK(stored.ok() && stored->validate().ok());
+  const auto m2 = static_cast<std::size_t>(info.resample * info.resample);
+  SSPC_FUZZ_CHECK(all->size() == (info.resample == 0 ? stored->size() : m2 * stored->size()));
+  auto other = model.decode_all(other_options);
+  SSPC_FUZZ_CHECK(other.ok() && other->validate().ok());
+  SSPC_FUZZ_CHECK(other->size() == (info.resample == 0 ? 4 * stored->size() : stored->size()));
   sspc::DecodeOptions overlap;
   overlap.overlap = true;
   auto whole = model.decode_all(overlap);
