@@ -852,7 +852,7 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
   });
   for (const BuiltBlock& b : patches) SSPC_RETURN_IF_ERROR(b.status);
   // The resample byte: as asked; else by the count rule, then, where the source is at hand
-  // and the grid is at least half a spacing, by measurement (resample_choice.hpp) once the
+  // and the grid is coarser than the spacing, by measurement (resample_choice.hpp) once the
   // geometry can be decoded.
   bool measure = false;
   int max_m = 0;
@@ -866,7 +866,7 @@ StatusOr<ContainerStats> ContainerStreamWriter::finish(const TileSource& attribu
     const double step = static_cast<double>(position_step(h.patch_radius, h.position_bits));
     const double step_in_spacings = step / static_cast<double>(h.spacing);
     h.resample = resample_for(h.source_points, decoded, step_in_spacings);
-    measure = static_cast<bool>(attribute_source) && step_in_spacings >= kMeasuredResampleStep;
+    measure = static_cast<bool>(attribute_source) && step_in_spacings > kMeasuredResampleStep;
     max_m = std::max(h.resample, 1);
   }
 

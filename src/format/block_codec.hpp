@@ -31,7 +31,7 @@ struct DecodedCodewords {
   std::vector<float> radius;           // per code word: sqrt(max norm2), 0 when empty
   // Per code word when the header asks for resampling (ContainerReader::read_codewords),
   // otherwise empty.
-  std::vector<CodewordSurface> surfaces;
+  std::vector<CodewordFit> surfaces;
 
   std::uint32_t count() const { return static_cast<std::uint32_t>(radius.size()); }
   // The bytes it holds, as the model's block cache counts them.
@@ -42,7 +42,7 @@ struct DecodedCodewords {
   }
   std::uint64_t surface_bytes() const {
     std::uint64_t bytes = 0;
-    for (const CodewordSurface& s : surfaces) bytes += s.memory_bytes();
+    for (const CodewordFit& s : surfaces) bytes += s.memory_bytes();
     return bytes;
   }
 };

@@ -231,9 +231,9 @@ Status CompressedModel::Impl::decode_one(BlockSource& src, std::size_t k,
                     nullptr, part, resample > 0 ? &parents : nullptr);
   // The code word's surface: the block's, built as it was decoded where the header asks for
   // resampling, else one for this call (a decode that asks for another m than the header's).
-  std::optional<codec::CodewordSurface> own_surface;
+  std::optional<codec::CodewordFit> own_surface;
   const auto emit_resampled = [&] {
-    const codec::CodewordSurface& surface =
+    const codec::CodewordFit& surface =
         words->surfaces.empty() ? own_surface.emplace(std::span<const Vec3f>(view.points, view.size))
                                 : words->surfaces[w];
     codec::emit_resampled(rotation, centre, surface, resample, position_step, part, parents, clip, out);

@@ -89,7 +89,7 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
 }
 
 void emit_resampled(const Eigen::Matrix3f& rotation, const Vec3f& centre,
-                    const CodewordSurface& surface, int m, float step, const PointCloud& part,
+                    const CodewordFit& surface, int m, float step, const PointCloud& part,
                     std::span<const std::uint32_t> parents, const Box3f* clip, PointCloud& out) {
   thread_local std::vector<Vec3f> points, normals;
   const bool with_normals = !part.normals.empty();

@@ -77,7 +77,7 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& world_from_codeword_rota
 // and, when `part` has normals, the fit's normal turned to agree with its parent's. `clip`, when
 // not null, drops new points outside it.
 void emit_resampled(const Eigen::Matrix3f& world_from_codeword_rotation, const Vec3f& centre,
-                    const CodewordSurface& surface, int m, float step, const PointCloud& part,
+                    const CodewordFit& surface, int m, float step, const PointCloud& part,
                     std::span<const std::uint32_t> parents, const Box3f* clip, PointCloud& out);
 
 // Inline: called for every code-word point a patch decodes (out of line, one patch of

@@ -8,14 +8,14 @@
 
 namespace sspc::codec {
 
-CodewordSurface::CodewordSurface(std::span<const Vec3f> points) : points_(points), tree_(points) {}
+CodewordFit::CodewordFit(std::span<const Vec3f> points) : points_(points), tree_(points) {}
 
-std::uint64_t CodewordSurface::memory_bytes() const {
+std::uint64_t CodewordFit::memory_bytes() const {
   // nanoflann: an index a point and about one node of 40 bytes a leaf of ten.
   return sizeof(*this) + points_.size() * (sizeof(std::uint32_t) + 4);
 }
 
-void CodewordSurface::resample(std::uint32_t i, int m, float step, std::vector<Vec3f>& points,
+void CodewordFit::resample(std::uint32_t i, int m, float step, std::vector<Vec3f>& points,
                                std::vector<Vec3f>& normals) const {
   const Vec3f q = points_[i];
   std::array<std::uint32_t, kResampleNeighbours> index{};

@@ -25,9 +25,9 @@ inline constexpr int kMaxResample = 4;
 inline constexpr std::size_t kResampleNeighbours = 16;
 
 // One code word's points and a k-d tree over them. The points must outlive it and not move.
-class CodewordSurface {
+class CodewordFit {
  public:
-  explicit CodewordSurface(std::span<const Vec3f> points);
+  explicit CodewordFit(std::span<const Vec3f> points);
 
   // Appends to `points` the m × m points that stand for code-word point i (in the code word's
   // frame, `step` the code words' grid step), and their unit normals to `normals`.

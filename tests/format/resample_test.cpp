@@ -43,7 +43,7 @@ TEST(Resample, PointsOfATiltedPlaneLieOnItSpreadOverTheCell) {
   const float g = 0.5f;
   const auto plane = [](float x, float y) { return 0.3f * x - 0.2f * y + 1.0f; };
   const std::vector<Vec3f> points = grid_surface(9, g, plane);
-  const CodewordSurface surface(points);
+  const CodewordFit surface(points);
   const std::uint32_t centre = index_of(points, Vec3f(0, 0, 1));
   for (int m = 1; m <= kMaxResample; ++m) {
     SCOPED_TRACE("m = " + std::to_string(m));
@@ -74,7 +74,7 @@ TEST(Resample, AQuadricIsFitted) {
   const float g = 0.25f;
   const auto bowl = [](float x, float y) { return 0.4f * x * x + 0.1f * x * y - 0.3f * y * y; };
   const std::vector<Vec3f> points = grid_surface(11, g, bowl);
-  const CodewordSurface surface(points);
+  const CodewordFit surface(points);
   std::vector<Vec3f> out, normals;
   surface.resample(index_of(points, Vec3f(0, 0, 0)), 3, g, out, normals);
   ASSERT_EQ(out.size(), 9u);
@@ -93,7 +93,7 @@ TEST(Resample, AQuadricIsFitted) {
 
 TEST(Resample, TooFewPointsForAFitGiveTheTangentPlaneOfTheFrame) {
   const std::vector<Vec3f> points = {Vec3f(1, 2, 3), Vec3f(1.5f, 2, 3)};
-  const CodewordSurface surface(points);
+  const CodewordFit surface(points);
   std::vector<Vec3f> out, normals;
   surface.resample(0, 2, 1.0f, out, normals);
   ASSERT_EQ(out.size(), 4u);
