@@ -117,11 +117,8 @@ TEST(Resample, TheWritersRuleResamplesCoarseGridsOnly) {
 }
 
 test::ModelShape plane_shape() {
-  test::ModelShape s;
+  test::ModelShape s;  // patch radius 4, centres 3 apart, 5 code words
   s.side = 30;
-  s.patch_radius = 4.0f;
-  s.centre_step = 3.0f;
-  s.codewords = 5;
   return s;
 }
 
