@@ -105,7 +105,7 @@ void emit_resampled(const Eigen::Matrix3f& rotation, const Vec3f& centre,
     if (clip != nullptr && clip->squaredExteriorDistance(part.positions[j]) > reach2) continue;
     points.clear();
     normals.clear();
-    surface.resample(parents[j], m, step, points, normals);
+    surface.resample(parents[j], m, step, points, with_normals ? &normals : nullptr);
     for (std::size_t s = 0; s < points.size(); ++s) {
       const Vec3f p = transform_point(rotation, points[s], centre);
       if (clip != nullptr && !clip->contains(p)) continue;

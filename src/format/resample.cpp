@@ -16,7 +16,7 @@ std::uint64_t CodewordFit::memory_bytes() const {
 }
 
 void CodewordFit::resample(std::uint32_t i, int m, float step, std::vector<Vec3f>& points,
-                               std::vector<Vec3f>& normals) const {
+                               std::vector<Vec3f>* normals) const {
   const Vec3f q = points_[i];
   std::array<std::uint32_t, kResampleNeighbours> index{};
   std::array<float, kResampleNeighbours> d2{};
@@ -90,9 +90,10 @@ void CodewordFit::resample(std::uint32_t i, int m, float step, std::vector<Vec3f
       const double v = (static_cast<double>(r) + 0.5) / m - 0.5;
       const double z =
           std::clamp(c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v, -g, g);
-      const double du = (c[1] + 2 * c[3] * u + c[4] * v) / g, dv = (c[2] + c[4] * u + 2 * c[5] * v) / g;
       points.push_back((origin + (u * g) * t1 + (v * g) * t2 + z * n).cast<float>());
-      normals.push_back((n - du * t1 - dv * t2).normalized().cast<float>());
+      if (normals == nullptr) continue;
+      const double du = (c[1] + 2 * c[3] * u + c[4] * v) / g, dv = (c[2] + c[4] * u + 2 * c[5] * v) / g;
+      normals->push_back((n - du * t1 - dv * t2).normalized().cast<float>());
     }
   }
 }

@@ -30,9 +30,10 @@ class CodewordFit {
   explicit CodewordFit(std::span<const Vec3f> points);
 
   // Appends to `points` the m × m points that stand for code-word point i (in the code word's
-  // frame, `step` the code words' grid step), and their unit normals to `normals`.
+  // frame, `step` the code words' grid step), and their unit normals to `normals` unless it is
+  // null (a decode without normals).
   void resample(std::uint32_t i, int m, float step, std::vector<Vec3f>& points,
-                std::vector<Vec3f>& normals) const;
+                std::vector<Vec3f>* normals) const;
 
   // What the tree holds beyond the points, for the block cache's count.
   std::uint64_t memory_bytes() const;

@@ -48,7 +48,7 @@ TEST(Resample, PointsOfATiltedPlaneLieOnItSpreadOverTheCell) {
   for (int m = 1; m <= kMaxResample; ++m) {
     SCOPED_TRACE("m = " + std::to_string(m));
     std::vector<Vec3f> out, normals;
-    surface.resample(centre, m, g, out, normals);
+    surface.resample(centre, m, g, out, &normals);
     ASSERT_EQ(out.size(), static_cast<std::size_t>(m * m));
     ASSERT_EQ(normals.size(), out.size());
     const Vec3f n = Vec3f(-0.3f, 0.2f, 1.0f).normalized();  // oriented towards +z
@@ -76,7 +76,7 @@ TEST(Resample, AQuadricIsFitted) {
   const std::vector<Vec3f> points = grid_surface(11, g, bowl);
   const CodewordFit surface(points);
   std::vector<Vec3f> out, normals;
-  surface.resample(index_of(points, Vec3f(0, 0, 0)), 3, g, out, normals);
+  surface.resample(index_of(points, Vec3f(0, 0, 0)), 3, g, out, &normals);
   ASSERT_EQ(out.size(), 9u);
   for (std::size_t s = 0; s < out.size(); ++s) {
     const float x = out[s].x(), y = out[s].y();
@@ -95,7 +95,7 @@ TEST(Resample, TooFewPointsForAFitGiveTheTangentPlaneOfTheFrame) {
   const std::vector<Vec3f> points = {Vec3f(1, 2, 3), Vec3f(1.5f, 2, 3)};
   const CodewordFit surface(points);
   std::vector<Vec3f> out, normals;
-  surface.resample(0, 2, 1.0f, out, normals);
+  surface.resample(0, 2, 1.0f, out, &normals);
   ASSERT_EQ(out.size(), 4u);
   for (std::size_t s = 0; s < out.size(); ++s) {
     EXPECT_FLOAT_EQ(out[s].z(), 3.0f);
