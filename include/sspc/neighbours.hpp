@@ -67,6 +67,9 @@ class KdTree3 {
   std::size_t radius(const Vec3f& query, float radius, std::vector<Neighbour>& out,
                      bool sorted = true) const;
 
+  // How many points radius() would give, without collecting them.
+  std::size_t radius_count(const Vec3f& query, float radius) const;
+
   // k nearest neighbours of every query, in parallel. `exclude_self`: queries are the tree's own
   // points and each one's own index is dropped from its row (k neighbours besides itself).
   // Advances `progress` (when given) by the number of queries answered; the caller owns the stage.

@@ -39,9 +39,7 @@ float radius_for_patch_points(const PointCloud& cloud, const KdTree3& tree, doub
   for (int round = 0; round < 2; ++round) {
     const auto r = static_cast<float>(radius);
     const double total = deterministic_sum<double>(0, samples, [&](std::size_t s) {
-      std::vector<Neighbour> near;
-      tree.radius(cloud.positions[s * stride], r, near, false);
-      return static_cast<double>(near.size());
+      return static_cast<double>(tree.radius_count(cloud.positions[s * stride], r));
     }, 64);
     const double mean = total / static_cast<double>(samples);
     if (mean <= 0) break;

@@ -39,17 +39,23 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<fl
 // Collects the points with squared distance ≤ r² exactly. nanoflann's own radius set keeps
 // d² < r² and may prune a few ulps early, so it searches a slightly larger ball and this set
 // applies the exact test, the same one a brute-force scan makes.
+// With `out` null it only counts them: what radius_count needs, without storing a neighbour a
+// point (a patch-radius estimate at 16,384 points a patch stored 33M of them and spent a fifth
+// of a small encode growing the vectors).
 class InclusiveRadiusResultSet {
  public:
-  InclusiveRadiusResultSet(float radius_squared, std::vector<Neighbour>& out)
+  InclusiveRadiusResultSet(float radius_squared, std::vector<Neighbour>* out)
       : radius_squared_(radius_squared),
         search_bound_(std::nextafter(radius_squared + radius_squared * 1e-5f,
                                      std::numeric_limits<float>::infinity())),
         out_(out) {}
-  std::size_t size() const { return out_.size(); }
+  std::size_t size() const { return count_; }
   bool full() const { return true; }
   bool addPoint(float distance_squared, std::uint32_t index) {
-    if (distance_squared <= radius_squared_) out_.push_back({index, distance_squared});
+    if (distance_squared <= radius_squared_) {
+      ++count_;
+      if (out_ != nullptr) out_->push_back({index, distance_squared});
+    }
     return true;
   }
   float worstDist() const { return search_bound_; }
@@ -57,7 +63,8 @@ class InclusiveRadiusResultSet {
  private:
   float radius_squared_;
   float search_bound_;
-  std::vector<Neighbour>& out_;
+  std::vector<Neighbour>* out_;
+  std::size_t count_ = 0;
 };
 
 bool neighbour_before(const Neighbour& a, const Neighbour& b) {
@@ -114,11 +121,18 @@ std::size_t KdTree3::radius(const Vec3f& query, float r, std::vector<Neighbour>&
                             bool sorted) const {
   out.clear();
   if (points_.empty() || !(r >= 0)) return 0;
-  InclusiveRadiusResultSet result(r * r, out);
+  InclusiveRadiusResultSet result(r * r, &out);
   impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
   // Sorted by distance, then index, so that results are reproducible.
   if (sorted) std::sort(out.begin(), out.end(), neighbour_before);
   return out.size();
+}
+
+std::size_t KdTree3::radius_count(const Vec3f& query, float r) const {
+  if (points_.empty() || !(r >= 0)) return 0;
+  InclusiveRadiusResultSet result(r * r, nullptr);
+  impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  return result.size();
 }
 
 KnnTable KdTree3::knn_batch(std::span<const Vec3f> queries, std::size_t k, bool exclude_self,

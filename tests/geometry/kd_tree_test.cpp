@@ -114,6 +114,7 @@ TEST(KdTree3, EmptyTreeAnswersNothing) {
   std::vector<Neighbour> got;
   EXPECT_EQ(tree.knn(Vec3f(0, 0, 0), 3, got), 0u);
   EXPECT_EQ(tree.radius(Vec3f(0, 0, 0), 1.0f, got), 0u);
+  EXPECT_EQ(tree.radius_count(Vec3f(0, 0, 0), 1.0f), 0u);
   const KnnTable table = tree.knn_batch(points, 4);
   EXPECT_TRUE(table.count.empty());
 }
@@ -135,6 +136,7 @@ TEST(KdTree3, RadiusMatchesBruteForceAndIncludesBoundary) {
       }
       std::vector<Neighbour> got;
       ASSERT_EQ(tree.radius(q, r, got), expected.size()) << "trial " << trial << " r " << r;
+      ASSERT_EQ(tree.radius_count(q, r), expected.size()) << "trial " << trial << " r " << r;
       for (std::size_t j = 0; j < got.size(); ++j) {
         ASSERT_EQ(got[j].index, expected[j].index);
         ASSERT_EQ(got[j].distance_squared, expected[j].distance_squared);
