@@ -199,7 +199,8 @@ TEST(CliReliability, RenderCompareReportsImagePsnr) {
   const std::string model = (dir.path() / "bunny.sspc").string();
   const std::string decoded = (dir.path() / "decoded.ply").string();
   const std::string a = (dir.path() / "direct.png").string(), b = (dir.path() / "decoded.png").string();
-  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model + " --quiet", kLimit).exit_code, 0);
+  // An eighth of the bunny: the comparison is what is tested, not the renderer.
+  ASSERT_EQ(sspc(dir, "encode " + small_bunny(dir) + " " + model + " --quiet", kLimit).exit_code, 0);
   ASSERT_EQ(sspc(dir, "decode " + model + " " + decoded + " --quiet", kLimit).exit_code, 0);
   // One camera for both: the automatic one frames each input's own bounds, and the decoded
   // cloud's differ from the source's by the codec's error.
