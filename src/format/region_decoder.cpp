@@ -51,6 +51,42 @@ void RegionTest::reset(std::uint32_t k, const Eigen::Matrix3f& rotation, const V
   });
 }
 
+void RegionTest::claims_all(const Vec3f* points, const float* norm2, std::size_t n,
+                            std::vector<std::uint32_t>& keep) const {
+  // The points' coordinates and reaches as separate arrays, which the loop below runs over
+  // four or eight at a time.
+  thread_local std::vector<float> xs, ys, zs, reach;
+  xs.resize(n);
+  ys.resize(n);
+  zs.resize(n);
+  reach.resize(n);
+  float widest = 0.0f;
+  for (std::size_t i = 0; i < n; ++i) {
+    xs[i] = points[i].x();
+    ys[i] = points[i].y();
+    zs[i] = points[i].z();
+    reach[i] = 4.001f * norm2[i];
+    widest = std::max(widest, reach[i]);
+  }
+  keep.assign(n, ~0u);
+  const float* __restrict x = xs.data();
+  const float* __restrict y = ys.data();
+  const float* __restrict z = zs.data();
+  const float* __restrict r = reach.data();
+  std::uint32_t* __restrict kept = keep.data();
+  for (const FrameNeighbour& f : frame_) {
+    // Sorted by |e_j|²: from here on no neighbour is within reach of any point.
+    if (f.ee > widest) break;
+    const float ee = f.ee, fx = f.x, fy = f.y, fz = f.z;
+    const bool tie_kept = k_ < f.index;
+    for (std::size_t i = 0; i < n; ++i) {
+      const float s = ee - 2.0f * (x[i] * fx + y[i] * fy + z[i] * fz);
+      const bool ok = (ee > r[i]) | (s > 0.0f) | ((s == 0.0f) & tie_kept);
+      kept[i] &= ok ? ~0u : 0u;
+    }
+  }
+}
+
 void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& centre,
                 const CodewordView& cw, std::span<const NeighbourInstance> neighbours, bool overlap,
                 const Box3f* clip, PointCloud& out, std::vector<std::uint32_t>* parents) {
@@ -71,10 +107,12 @@ void emit_patch(std::uint32_t k, const Eigen::Matrix3f& rotation, const Vec3f& c
     reserve_more(out.colours, cw.size);
     out.colours.resize(first + cw.size);
   }
+  thread_local std::vector<std::uint32_t> claimed;
+  if (!overlap) region.claims_all(cw.points, cw.norm2, cw.size, claimed);
   std::size_t kept = first;
   for (std::size_t i = 0; i < cw.size; ++i) {
     const Vec3f& q = cw.points[i];
-    if (!overlap && !region.claims(q, cw.norm2[i])) continue;
+    if (!overlap && claimed[i] == 0) continue;
     const Vec3f p = transform_point(rotation, q, centre);
     if (clip != nullptr && !clip->contains(p)) continue;
     out.positions[kept] = p;

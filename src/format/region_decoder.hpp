@@ -52,6 +52,12 @@ class RegionTest {
              std::span<const NeighbourInstance> neighbours);
   // Whether k keeps code-word point q (with norm2 = |q|² as the decoder computes it).
   bool claims(const Vec3f& q, float norm2) const;
+  // claims() for each of the n points of a code word at once: keep[i] is all ones where k keeps
+  // point i, 0 where it does not. The same arithmetic as claims(), so the same answers, but a
+  // neighbour at a time over all points, without branches: a trimmed code word's points are
+  // almost all kept, so claims() ran through every neighbour within reach of almost every
+  // point, a mispredicted branch at each.
+  void claims_all(const Vec3f* points, const float* norm2, std::size_t n, std::vector<std::uint32_t>& keep) const;
 
  private:
   struct FrameNeighbour {
