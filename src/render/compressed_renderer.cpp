@@ -47,6 +47,10 @@ constexpr double kPointsPerDecodedBrick = 32768;
 // other normals than the whole decode's: 34.7 dB against the render of the decode. The reach is
 // measured (DecodedSampling) and this is its floor.
 constexpr int kNormalNeighbours = 16;
+// The leaves of the k-d trees a brick and the spacing's sample build for their k-NN: 24 points,
+// as the encoder's (src/encoder/encoder.cpp), not KdTree3's 10. The answers are the same (ties
+// by lower index, whatever the tree's shape).
+constexpr std::size_t kBrickTreeLeaf = 24;
 constexpr float kNormalReach = 4.0f;
 // The share of sampled points whose 16 nearest a brick's margin holds.
 constexpr double kNormalReachQuantile = 0.999;
@@ -122,7 +126,7 @@ StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
     std::sort(points.begin(), points.end(), less);
     points.erase(std::unique(points.begin(), points.end()), points.end());
     if (points.size() < 2) continue;
-    const KdTree3 tree(points);
+    const KdTree3 tree(points, kBrickTreeLeaf);
     std::size_t i = offset;
     for (; i < own.size(); i += stride) {
       std::uint32_t index[kNormalNeighbours];
@@ -324,7 +328,7 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_points(std::size_t b
     // compressed render of autzen, perf at 512², the image the same).
     SSPC_RETURN_IF_ERROR(check_coordinate_range(cloud.positions));
     const std::size_t k = std::min<std::size_t>(kNormalNeighbours, cloud.size() - 1);
-    const KnnTable table = KdTree3(cloud.positions).knn_batch(positions, k, false, nullptr, false);
+    const KnnTable table = KdTree3(cloud.positions, kBrickTreeLeaf).knn_batch(positions, k, false, nullptr, false);
     normals.resize(kept.size());
     detail::estimate_normals_pca(cloud.positions, table, normals, nullptr);
   } else {
