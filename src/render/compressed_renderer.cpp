@@ -22,6 +22,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "core/parallel.hpp"
 #include "core/stopwatch.hpp"
 #include "geometry/normals_steps.hpp"
 #include "render/brick_scene.hpp"
@@ -94,6 +95,10 @@ struct DecodedSampling {
 // the header's spacing (the source's): at coarse levels the codec's grid merges points, and the
 // bunny's decoded spacing is 1.9 times the source's at level 9; taking the header's, the direct
 // render scored 25.6 dB against the render of the decode.
+bool position_less(const Vec3f& a, const Vec3f& b) {
+  return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
+}
+
 StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
   const ModelInfo info = model.info();
   const std::size_t patches = model.patch_count();
@@ -104,38 +109,90 @@ StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
   const double sampled_points =
       static_cast<double>(info.source_points) * static_cast<double>(count) / static_cast<double>(patches);
   const auto stride = static_cast<std::size_t>(std::max(1.0, sampled_points / kSpacingSamples));
-  std::vector<float> nearest, reach;
-  std::size_t offset = 0;
-  for (std::size_t s = 0; s < count; ++s) {
-    const std::size_t k = s * patches / count;
-    SSPC_ASSIGN_OR_RETURN(const PointCloud own, model.decode_patch(k));
-    if (own.empty()) continue;
+  // Over 1024 patches spread through the file, the sampled patches and what lies around them
+  // are about the whole model: decoded on one core, autzen level 5 took 3.0 s, the largest part
+  // of a cold frame's build. So the patches are decoded in parallel, twice: first for their
+  // sizes and boxes, from which the stride's place in each follows (it runs on from one patch
+  // into the next), then (from the cache) for the points it picks, each with what lies around
+  // it. The values are gathered in the patches' order.
+  struct Sample {
+    std::size_t patch = 0, size = 0, first = 0;  // first: the stride's first point in it
+    Box3f box;
+    bool one_position = false;  // every point of the patch at one position
+    bool skipped = false;
+    Status status;
+  };
+  std::vector<Sample> samples(count);
+  const float margin = kSampleMargin * info.spacing;
+  parallel_for(0, count, 1, [&](std::size_t s) {
+    Sample& sample = samples[s];
+    sample.patch = s * patches / count;
+    auto own = model.decode_patch(sample.patch);
+    if (!own.ok()) {
+      sample.status = own.status();
+      return;
+    }
+    sample.size = own->size();
+    if (own->empty()) return;
     // Everything decoded near the patch's points: their nearest neighbours may be another
     // patch's. A neighbour farther than the margin leaves that point's distance too long, which
     // only matters where the spacing itself exceeds the margin.
-    Box3f box = own.bounding_box();
-    const float margin = kSampleMargin * info.spacing;
-    box.extend(box.min() - Vec3f::Constant(margin));
-    box.extend(box.max() + Vec3f::Constant(margin));
-    SSPC_ASSIGN_OR_RETURN(PointCloud around, model.decode_box(box));
-    // Distinct positions: the nearest neighbour at another position, as nominal_spacing has it.
-    std::vector<Vec3f>& points = around.positions;
-    const auto less = [](const Vec3f& a, const Vec3f& b) {
-      return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
-    };
-    std::sort(points.begin(), points.end(), less);
+    sample.box = own->bounding_box();
+    sample.box.extend(sample.box.min() - Vec3f::Constant(margin));
+    sample.box.extend(sample.box.max() + Vec3f::Constant(margin));
+    const Vec3f& p0 = own->positions[0];
+    sample.one_position =
+        std::all_of(own->positions.begin(), own->positions.end(), [&](const Vec3f& p) { return p == p0; });
+  });
+  const auto distinct_points = [](std::vector<Vec3f>& points) {
+    std::sort(points.begin(), points.end(), position_less);
     points.erase(std::unique(points.begin(), points.end()), points.end());
-    if (points.size() < 2) continue;
-    const KdTree3 tree(points, kBrickTreeLeaf);
+    return points.size();
+  };
+  std::size_t offset = 0;
+  for (Sample& sample : samples) {
+    SSPC_RETURN_IF_ERROR(sample.status);
+    if (sample.size == 0) continue;
+    // A patch of one position whose surroundings hold no other gives no distance, and the
+    // stride does not move on past it (rare: found here, in order).
+    if (sample.one_position) {
+      SSPC_ASSIGN_OR_RETURN(PointCloud around, model.decode_box(sample.box));
+      if (distinct_points(around.positions) < 2) {
+        sample.skipped = true;
+        continue;
+      }
+    }
+    sample.first = offset;
     std::size_t i = offset;
-    for (; i < own.size(); i += stride) {
+    while (i < sample.size) i += stride;
+    offset = i - sample.size;  // where the stride falls in the next sampled patch
+  }
+  std::vector<std::vector<float>> nearest_of(count), reach_of(count);
+  parallel_for(0, count, 1, [&](std::size_t s) {
+    Sample& sample = samples[s];
+    if (sample.size == 0 || sample.skipped) return;
+    auto own = model.decode_patch(sample.patch);
+    auto around = model.decode_box(sample.box);
+    if (!own.ok() || !around.ok()) {
+      sample.status = own.ok() ? around.status() : own.status();
+      return;
+    }
+    // Distinct positions: the nearest neighbour at another position, as nominal_spacing has it.
+    if (distinct_points(around->positions) < 2) return;
+    const KdTree3 tree(around->positions, kBrickTreeLeaf);
+    for (std::size_t i = sample.first; i < own->size(); i += stride) {
       std::uint32_t index[kNormalNeighbours];
       float d2[kNormalNeighbours];
-      const std::size_t found = tree.knn(own.positions[i], kNormalNeighbours, index, d2);
-      if (found >= 2) nearest.push_back(std::sqrt(d2[1]));
-      if (found == kNormalNeighbours) reach.push_back(std::sqrt(d2[found - 1]));
+      const std::size_t found = tree.knn(own->positions[i], kNormalNeighbours, index, d2);
+      if (found >= 2) nearest_of[s].push_back(std::sqrt(d2[1]));
+      if (found == kNormalNeighbours) reach_of[s].push_back(std::sqrt(d2[found - 1]));
     }
-    offset = i - own.size();  // where the stride falls in the next sampled patch
+  });
+  std::vector<float> nearest, reach;
+  for (std::size_t s = 0; s < count; ++s) {
+    SSPC_RETURN_IF_ERROR(samples[s].status);
+    nearest.insert(nearest.end(), nearest_of[s].begin(), nearest_of[s].end());
+    reach.insert(reach.end(), reach_of[s].begin(), reach_of[s].end());
   }
   DecodedSampling sampling;
   if (nearest.empty()) {
