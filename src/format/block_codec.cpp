@@ -266,7 +266,7 @@ std::string encode_codeword_block_v3(std::span<const Codeword> codewords, const 
       sorted.push_back(grid[i]);
       kept.push_back(i);
     }
-    const int shift = column_shift(sorted, bits);
+    const int shift = cheapest_shift(models, sorted, bits, header.has_duplicates());
     coded.clear();
     for (const std::uint32_t k : column_order(sorted, shift)) {
       coded.push_back(sorted[k]);

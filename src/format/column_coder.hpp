@@ -59,6 +59,13 @@ struct ColumnModels {
 inline constexpr int kMaxColumnShift = 6;
 int column_shift(std::span<const std::array<std::uint32_t, 3>> points, int bits);
 
+// The shift the writer codes a code word with: column_shift's, or one size up or down where
+// that codes cheaper with `models` as they stand (priced by coding it both ways, where one size
+// up or down has been seen to win; column_coder.cpp). `points` as for column_shift; the models
+// are not changed.
+int cheapest_shift(const ColumnModels& models, std::span<const std::array<std::uint32_t, 3>> points, int bits,
+                   bool duplicates);
+
 // The order the columns code and decode a code word's points in, as indices into `points`, which
 // must be sorted by (y, x, z): by cell (y >> shift, then x >> shift), then as they come.
 std::vector<std::uint32_t> column_order(std::span<const std::array<std::uint32_t, 3>> points, int shift);

@@ -210,5 +210,62 @@ TEST(ColumnCoder, HostileStreamsStayBounded) {
   }
 }
 
+// The writer's cell size (cheapest_shift): column_shift's, or one size up or down where that
+// codes the code word in fewer bytes with the block's models as they stand, which are left as
+// they were. Over code words of many densities it codes no worse than the rule, and sometimes
+// better; where the density sits between the rule's bounds it keeps the rule's.
+TEST(ColumnCoder, TheWrittenShiftCodesNoWorseThanTheRulesOne) {
+  const int bits = 10;
+  const auto cost = [&](const ColumnModels& models, const Points& w, int shift) {
+    ColumnModels copy = models;
+    std::string out;
+    RangeEncoder rc(out);
+    Points ordered;
+    for (const std::uint32_t k : column_order(w, shift)) ordered.push_back(w[k]);
+    encode_columns(rc, copy, ordered, bits, shift, false);
+    rc.finish();
+    return out.size();
+  };
+  ColumnModels models(4);
+  std::mt19937 rng(5);
+  int changed = 0, kept = 0;
+  for (int word = 0; word < 60; ++word) {
+    // 400 points on a slope over a square whose side sets the density: from 1.3 to 60 grid
+    // columns a point.
+    const auto side = static_cast<std::uint32_t>(24 + 6 * word);
+    Points w;
+    for (int i = 0; i < 400; ++i) {
+      const auto x = static_cast<std::uint32_t>(rng() % side), y = static_cast<std::uint32_t>(rng() % side);
+      w.push_back({x, y, (x + 2 * y) / 8 + static_cast<std::uint32_t>(rng() % 3)});
+    }
+    sort_raster(w, true);
+    const ColumnModels before = models;
+    const int rule = column_shift(w, bits);
+    const int chosen = cheapest_shift(models, w, bits, false);
+    EXPECT_EQ(models.occupied, before.occupied) << "word " << word;
+    EXPECT_LE(std::abs(chosen - rule), 1) << "word " << word;
+    EXPECT_LE(cost(models, w, chosen), cost(models, w, rule)) << "word " << word << ": shift " << chosen << ", rule " << rule;
+    (chosen != rule ? changed : kept) += 1;
+    // The block's models move on as the writer's do, with the code word coded at its shift.
+    std::string sink;
+    RangeEncoder rc(sink);
+    Points ordered;
+    for (const std::uint32_t k : column_order(w, chosen)) ordered.push_back(w[k]);
+    encode_columns(rc, models, ordered, bits, chosen, false);
+  }
+  EXPECT_GT(changed, 0);
+  EXPECT_GT(kept, 0);
+  // A density between the rule's bounds (x in [1.75, 2), docs in column_coder.cpp): the rule's
+  // shift without pricing, whatever the models.
+  // A point every other column each way: 39² columns for 400 points, x = 1.90 at shift 0.
+  Points middle;
+  for (std::uint32_t y = 0; y < 40; y += 2) {
+    for (std::uint32_t x = 0; x < 40; x += 2) middle.push_back({x, y, 7});
+  }
+  sort_raster(middle, true);
+  EXPECT_EQ(column_shift(middle, bits), 0);
+  EXPECT_EQ(cheapest_shift(ColumnModels(4), middle, bits, false), 0);
+}
+
 }  // namespace
 }  // namespace sspc::codec
