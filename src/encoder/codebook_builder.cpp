@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include "core/parallel.hpp"
 #include "encoder/canonical_frame.hpp"
@@ -96,6 +97,38 @@ PatchFrames describe_patches(const PointCloud& cloud, const Patches& patches, co
     }
   });
   return f;
+}
+
+// A code word's frame: the canonical rotation of its patch turned about the normal so that the
+// frame's x and y axes follow the directions of the scan's sampling lattice, where the patch has
+// one. The columns (format/column_coder.hpp) code occupancy in rows of the frame's grid; a
+// lattice at an angle to them lays its points in a pattern the ten-cell context learns poorly.
+// The lattice's direction is the 4-fold mean of the directions to each sampled point's nearest
+// neighbour, in the tangent plane.
+Eigen::Matrix3f lattice_aligned(const Eigen::Matrix3f& world_from_canonical, const PointCloud& cloud,
+                                const KdTree3& tree, std::span<const std::uint32_t> idx) {
+  constexpr std::size_t kSamples = 256;
+  constexpr double kMinOrder = 0.3;
+  const std::size_t stride = std::max<std::size_t>(1, idx.size() / kSamples);
+  const Vec3f ex = world_from_canonical.col(0), ey = world_from_canonical.col(1);
+  double c4 = 0, s4 = 0;
+  std::size_t count = 0;
+  for (std::size_t j = 0; j < idx.size(); j += stride) {
+    const Vec3f& p = cloud.positions[idx[j]];
+    std::uint32_t near[2];
+    float d2[2];
+    if (tree.knn(p, 2, near, d2) < 2 || !(d2[1] > 0)) continue;
+    const Vec3f d = cloud.positions[near[1]] - p;
+    const double phi = std::atan2(static_cast<double>(d.dot(ey)), static_cast<double>(d.dot(ex)));
+    c4 += std::cos(4 * phi);
+    s4 += std::sin(4 * phi);
+    ++count;
+  }
+  if (count == 0 || std::hypot(c4, s4) < kMinOrder * static_cast<double>(count)) return world_from_canonical;
+  const double theta = std::atan2(s4, c4) / 4;
+  const Eigen::Matrix3f turn =
+      Eigen::AngleAxisf(static_cast<float>(theta), Vec3f::UnitZ()).toRotationMatrix();
+  return world_from_canonical * turn;
 }
 
 // The code word taken from patch `rep`: its points in the frame with origin at the centre and
@@ -189,6 +222,7 @@ std::size_t repair_coverage(const PointCloud& cloud, const KdTree3& points_tree,
     std::sort(idx.begin(), idx.end());
     RigidTransform world_from_codeword;
     world_from_codeword.rotation = canonical_frame(cloud.positions, cloud.normals, idx).world_from_canonical.rotation;
+    if (o.align_to_lattice) world_from_codeword.rotation = lattice_aligned(world_from_codeword.rotation, cloud, points_tree, idx);
     world_from_codeword.translation = c;
     model.patches.push_back({static_cast<std::uint32_t>(model.codebook.size()), world_from_codeword, true});
     model.codebook.push_back(make_codeword(cloud, idx, world_from_codeword));
@@ -294,6 +328,9 @@ EncodedModel build_codebook(const PointCloud& cloud, const KdTree3& points_tree,
       Speculation& sp = speculation[b];
       // The code word's frame: the representative's canonical rotation about its centre.
       sp.world_from_codeword.rotation = frames.world_from_canonical[rep].rotation;
+      if (o.align_to_lattice) {
+        sp.world_from_codeword.rotation = lattice_aligned(sp.world_from_codeword.rotation, cloud, points_tree, patches[rep]);
+      }
       sp.world_from_codeword.translation = centres[rep];
       sp.codeword = make_codeword(cloud, patches[rep], sp.world_from_codeword);
       std::vector<L1Neighbour> near;

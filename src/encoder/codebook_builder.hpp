@@ -32,8 +32,19 @@ struct CodebookOptions {
   // point-to-plane); a file that stores no normals needs none after it, and at level 5 they
   // cost 12 bytes a code-word point, some 40 bytes a source point (code words overlap 3.5×).
   bool keep_normals = true;
+  // Each code word's frame turned about its normal to follow the sampling lattice of the
+  // patch's scan, where it has one (codebook_builder.cpp, lattice_aligned). Worth it where the
+  // grid is finer than about a spacing and a cell holds at most one lattice point: the writer
+  // asks for it at grid steps up to kLatticeAlignedStep spacings.
+  bool align_to_lattice = false;
   Progress* progress = nullptr;
 };
+
+// The coarsest grid step, in point spacings, at which code words follow the scan's lattice
+// (levels 0-6): measured on bunny and igea at every level, aligned frames took 1.3-8% fewer
+// bits at levels 0-6 (but bunny's level 3, 1% more) and moved levels 7-9 by -2.4% to +0.7%
+// and -0.1 to +0.05 dB, where a cell holds several lattice points.
+inline constexpr float kLatticeAlignedStep = 1.25f;
 
 struct CodebookStats {
   std::size_t patches = 0;

@@ -109,6 +109,7 @@ StatusOr<EncodedModel> build_model(const PointCloud& cloud, const BuildOptions& 
   cb.tau = options.level.tau;
   cb.covered_points = options.core_points;
   cb.keep_normals = options.codeword_normals;
+  cb.align_to_lattice = options.level.position_step > 0 && options.level.position_step <= kLatticeAlignedStep;
   cb.progress = options.progress;
   CodebookStats codebook_stats;
   EncodedModel model = build_codebook(cloud, tree, centres, cb, &codebook_stats);

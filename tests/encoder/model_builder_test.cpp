@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -161,6 +162,42 @@ TEST(ModelBuilder, GeometryDerivedAheadBuildsTheSameModel) {
     EXPECT_EQ(alone->patches[k].world_from_codeword.translation, ahead->patches[k].world_from_codeword.translation);
     EXPECT_EQ(alone->patches[k].codeword, ahead->patches[k].codeword);
   }
+}
+
+// A plane sampled on a square lattice turned 17° in its plane: at the fine levels every code
+// word's frame turns about the normal to follow the lattice (its x axis at 17° modulo 90°), so
+// that the columns' rows run along the samples' rows; at the coarse levels, where a cell holds
+// several samples, the frame stays the canonical one.
+TEST(ModelBuilder, FineCodewordsFollowTheScansLattice) {
+  PointCloud cloud;
+  const double turn = 17.0 * std::numbers::pi / 180.0;
+  for (int i = 0; i < 120; ++i) {
+    for (int j = 0; j < 120; ++j) {
+      const double u = i, v = j;
+      cloud.positions.emplace_back(static_cast<float>(u * std::cos(turn) - v * std::sin(turn)),
+                                   static_cast<float>(u * std::sin(turn) + v * std::cos(turn)), 0.0f);
+      cloud.normals.emplace_back(0.0f, 0.0f, 1.0f);
+    }
+  }
+  const auto lattice_offset_degrees = [&](const PatchInstance& patch) {
+    const Vec3f x = patch.world_from_codeword.rotation.col(0);
+    const double angle = std::atan2(static_cast<double>(x.y()), static_cast<double>(x.x())) - turn;
+    const double quarter = std::numbers::pi / 2;
+    const double off = angle - quarter * std::round(angle / quarter);
+    return std::abs(off) * 180.0 / std::numbers::pi;
+  };
+  auto fine = build_model(cloud, options_for_level(3), nullptr);
+  ASSERT_TRUE(fine.ok()) << fine.status().to_string();
+  ASSERT_GE(fine->patches.size(), 2u);
+  for (const PatchInstance& patch : fine->patches) {
+    EXPECT_NEAR(std::abs(patch.world_from_codeword.rotation(2, 2)), 1.0f, 1e-4f);
+    EXPECT_LT(lattice_offset_degrees(patch), 1.0);
+  }
+  auto coarse = build_model(cloud, options_for_level(8), nullptr);
+  ASSERT_TRUE(coarse.ok()) << coarse.status().to_string();
+  bool all_aligned = true;
+  for (const PatchInstance& patch : coarse->patches) all_aligned = all_aligned && lattice_offset_degrees(patch) < 1.0;
+  EXPECT_FALSE(all_aligned) << "the canonical frame of a flat patch follows no lattice";
 }
 
 }  // namespace
