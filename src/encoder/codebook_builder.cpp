@@ -2,6 +2,7 @@
 #include "encoder/codebook_builder.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -107,23 +108,50 @@ PatchFrames describe_patches(const PointCloud& cloud, const Patches& patches, co
 // neighbour, in the tangent plane.
 Eigen::Matrix3f lattice_aligned(const Eigen::Matrix3f& world_from_canonical, const PointCloud& cloud,
                                 const KdTree3& tree, std::span<const std::uint32_t> idx) {
+  // 256 directions, the first quarter of them (every fourth) asked first: a patch whose 64
+  // show no order (autzen's, whose flight lines overlap) stops there. The mean resultant length
+  // of 64 random directions is about 1/8; the k-NN queries of all 256 cost autzen's level-5
+  // encode about 1 s, and 64 alone lost bunny 0.6% at level 5 (a less certain angle).
   constexpr std::size_t kSamples = 256;
+  constexpr std::size_t kFirst = 4;  // every kFirst-th sample first
   constexpr double kMinOrder = 0.3;
+  constexpr double kNoOrder = 0.2;   // of the first ones: no lattice
   const std::size_t stride = std::max<std::size_t>(1, idx.size() / kSamples);
+  const std::size_t samples = (idx.size() + stride - 1) / stride;
   const Vec3f ex = world_from_canonical.col(0), ey = world_from_canonical.col(1);
-  double c4 = 0, s4 = 0;
-  std::size_t count = 0;
-  for (std::size_t j = 0; j < idx.size(); j += stride) {
-    const Vec3f& p = cloud.positions[idx[j]];
+  // Each sample's 4-fold direction (cos 4φ, sin 4φ), or nothing where its nearest neighbour
+  // lies at its own position; summed in sample order, whichever pass asked.
+  std::vector<std::array<double, 2>> direction(samples);
+  std::vector<bool> found(samples, false);
+  const auto ask = [&](std::size_t s) {
+    const Vec3f& p = cloud.positions[idx[s * stride]];
     std::uint32_t near[2];
     float d2[2];
-    if (tree.knn(p, 2, near, d2) < 2 || !(d2[1] > 0)) continue;
+    if (tree.knn(p, 2, near, d2) < 2 || !(d2[1] > 0)) return;
     const Vec3f d = cloud.positions[near[1]] - p;
     const double phi = std::atan2(static_cast<double>(d.dot(ey)), static_cast<double>(d.dot(ex)));
-    c4 += std::cos(4 * phi);
-    s4 += std::sin(4 * phi);
-    ++count;
+    direction[s] = {std::cos(4 * phi), std::sin(4 * phi)};
+    found[s] = true;
+  };
+  const auto order = [&](double& c4, double& s4, std::size_t& count) {
+    c4 = s4 = 0;
+    count = 0;
+    for (std::size_t s = 0; s < samples; ++s) {
+      if (!found[s]) continue;
+      c4 += direction[s][0];
+      s4 += direction[s][1];
+      ++count;
+    }
+  };
+  double c4 = 0, s4 = 0;
+  std::size_t count = 0;
+  for (std::size_t s = 0; s < samples; s += kFirst) ask(s);
+  order(c4, s4, count);
+  if (count == 0 || std::hypot(c4, s4) < kNoOrder * static_cast<double>(count)) return world_from_canonical;
+  for (std::size_t s = 0; s < samples; ++s) {
+    if (s % kFirst != 0) ask(s);
   }
+  order(c4, s4, count);
   if (count == 0 || std::hypot(c4, s4) < kMinOrder * static_cast<double>(count)) return world_from_canonical;
   const double theta = std::atan2(s4, c4) / 4;
   const Eigen::Matrix3f turn =

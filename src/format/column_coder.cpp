@@ -452,8 +452,8 @@ int column_shift(std::span<const Point> points, int bits) {
 // almost never below 2; one size down won 13-16% below x = 1.5 and almost never from 1.75 on.
 // Pricing both neighbours everywhere gained no more (and two sizes away nothing at all) and
 // slowed level 0's encode by a quarter; priced only where x says so, dragon_scans' level 0 takes
-// 12% more CPU (1.44 -> 1.62 s) and autzen's level 5 nothing measurable (x < 2 and t = 0 almost
-// everywhere there). bunny 2.1% smaller at level 2 and 4.1% at level 3, dragon_scans 1.3% at
+// 12% more CPU (1.44 -> 1.62 s). The writer prices on grids finer than 0.75 spacings only
+// (levels 0-4; block_codec.cpp says why). bunny 2.1% smaller at level 2 and 4.1% at level 3, dragon_scans 1.3% at
 // level 0 and 2.3% at level 4, the same points.
 int cheapest_shift(const ColumnModels& models, std::span<const Point> sorted, int bits, bool duplicates) {
   const int rule = column_shift(sorted, bits);
