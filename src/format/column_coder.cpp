@@ -425,8 +425,10 @@ ColumnModels::ColumnModels(int format_version)
   another.fill(kProbabilityHalf);
 }
 
-int column_shift(std::span<const Point> points, int bits) {
-  if (points.empty()) return 0;
+namespace {
+
+// Grid columns of a code word's bounding rectangle per point (`points` not empty).
+double columns_per_point(std::span<const Point> points) {
   std::uint32_t x_min = points.front()[0], x_max = x_min, y_min = points.front()[1], y_max = y_min;
   for (const Point& p : points) {
     x_min = std::min(x_min, p[0]);
@@ -434,8 +436,15 @@ int column_shift(std::span<const Point> points, int bits) {
     y_min = std::min(y_min, p[1]);
     y_max = std::max(y_max, p[1]);
   }
-  const double per_point = static_cast<double>(x_max - x_min + 1) * static_cast<double>(y_max - y_min + 1) /
-                           static_cast<double>(points.size());
+  return static_cast<double>(x_max - x_min + 1) * static_cast<double>(y_max - y_min + 1) /
+         static_cast<double>(points.size());
+}
+
+}  // namespace
+
+int column_shift(std::span<const Point> points, int bits) {
+  if (points.empty()) return 0;
+  const double per_point = columns_per_point(points);
   int shift = 0;
   while (shift + 1 < bits && shift < kMaxColumnShift && 2 * std::ldexp(1.0, 2 * (shift + 1)) <= per_point) ++shift;
   return shift;
@@ -458,15 +467,7 @@ int column_shift(std::span<const Point> points, int bits) {
 int cheapest_shift(const ColumnModels& models, std::span<const Point> sorted, int bits, bool duplicates) {
   const int rule = column_shift(sorted, bits);
   if (sorted.empty()) return rule;
-  std::uint32_t x0 = sorted.front()[0], x1 = x0, y0 = sorted.front()[1], y1 = y0;
-  for (const auto& p : sorted) {
-    x0 = std::min(x0, p[0]);
-    x1 = std::max(x1, p[0]);
-    y0 = std::min(y0, p[1]);
-    y1 = std::max(y1, p[1]);
-  }
-  const double x = static_cast<double>(x1 - x0 + 1) * static_cast<double>(y1 - y0 + 1) /
-                   static_cast<double>(sorted.size()) / (2 * std::ldexp(1.0, 2 * rule));
+  const double x = columns_per_point(sorted) / (2 * std::ldexp(1.0, 2 * rule));
   int other = rule;
   if (x >= 2 && rule < std::min(kMaxColumnShift, bits - 1)) other = rule + 1;
   if (x < 1.75 && rule > 0) other = rule - 1;
