@@ -88,6 +88,11 @@ struct DecodedSampling {
   double area_spacing = 0;
 };
 
+// Positions in lexicographic order, for sorting them to their distinct ones.
+bool position_less(const Vec3f& a, const Vec3f& b) {
+  return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
+}
+
 // The nominal spacing of the decoded model (nominal_spacing of its distinct positions), which is
 // what a render of the decode takes its bandwidth from, measured without decoding it all: over
 // the points of up to kSpacingPatches patches spread through the file, each decoded with what
@@ -95,10 +100,6 @@ struct DecodedSampling {
 // the header's spacing (the source's): at coarse levels the codec's grid merges points, and the
 // bunny's decoded spacing is 1.9 times the source's at level 9; taking the header's, the direct
 // render scored 25.6 dB against the render of the decode.
-bool position_less(const Vec3f& a, const Vec3f& b) {
-  return std::tie(a.x(), a.y(), a.z()) < std::tie(b.x(), b.y(), b.z());
-}
-
 StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
   const ModelInfo info = model.info();
   const std::size_t patches = model.patch_count();
