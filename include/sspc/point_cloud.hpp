@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -123,6 +124,9 @@ struct PointCloud {
   void append(const PointCloud& other);
   // Points [begin, end) with every per-point array, the origin and the metadata.
   PointCloud slice(std::size_t begin, std::size_t end) const;
+  // The points at `indices` (each below size()), in that order, with every per-point array, the
+  // origin and the metadata: a subset, a copy of some points, or a reordering.
+  PointCloud select(std::span<const std::uint32_t> indices) const;
 
   // Axis-aligned bounds of the positions; an empty box for an empty cloud.
   Box3f bounding_box() const;

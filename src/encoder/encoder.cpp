@@ -253,6 +253,12 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   EncodeStats stats;
   stats.points = cloud.size();
   auto start = std::chrono::steady_clock::now();
+  // The points in Morton order (timed with the normals): every step after this one (the k-NN
+  // searches, the orientation's tree, the centres, the code book) visits a point's neighbours,
+  // and in this order they lie near it in memory. A file's order need not be spatial: autzen's
+  // encode 38.0 -> 35.0 s when its points came sorted. And the same points in another order
+  // give the same file.
+  cloud = cloud.select(codec::point_order(cloud.positions));
   NormalOptions normal_options = options.normals;
   normal_options.progress = options.progress;
   // The normals' k-NN search gives the centres' feature strength too, when it was made and

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <numeric>
+#include <tuple>
+#include <utility>
+
+#include "core/parallel.hpp"
 
 namespace sspc::codec {
 
@@ -39,6 +43,25 @@ std::vector<std::uint32_t> spatial_order(const std::vector<Vec3f>& points, const
   std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
     return codes[a] < codes[b] || (codes[a] == codes[b] && a < b);
   });
+  return order;
+}
+
+std::vector<std::uint32_t> point_order(std::span<const Vec3f> points) {
+  Box3f bounds;
+  for (const Vec3f& p : points) bounds.extend(p);
+  // (code, index) pairs: the comparison reads the positions only where two codes tie.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(points.size());
+  parallel_for(0, points.size(), 4096, [&](std::size_t i) {
+    keyed[i] = {morton_code(points[i], bounds), static_cast<std::uint32_t>(i)};
+  });
+  parallel_sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    const Vec3f& p = points[a.second];
+    const Vec3f& q = points[b.second];
+    return std::tie(p.x(), p.y(), p.z(), a.second) < std::tie(q.x(), q.y(), q.z(), b.second);
+  });
+  std::vector<std::uint32_t> order(points.size());
+  parallel_for(0, points.size(), 4096, [&](std::size_t i) { order[i] = keyed[i].second; });
   return order;
 }
 

@@ -19,6 +19,7 @@
 #include "core/stopwatch.hpp"
 #include "encoder/encode_steps.hpp"
 #include "encoder/patch_centres.hpp"
+#include "encoder/spatial_order.hpp"
 #include "encoder/tile_job.hpp"
 #include "encoder/tile_store.hpp"
 #include "format/attribute_coder.hpp"
@@ -418,6 +419,15 @@ StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes,
 namespace {
 
 StatusOr<std::string> run_parsed_tile_job(codec::TileJob job) {
+  // The tile's points and then its margin's, each in the order sspc::encode takes a cloud's
+  // points in (codec::point_order).
+  const std::size_t core =
+      job.build.core_points == 0 ? job.part.size() : std::min<std::size_t>(job.build.core_points, job.part.size());
+  std::vector<std::uint32_t> order = codec::point_order(std::span(job.part.positions).first(core));
+  for (std::uint32_t i : codec::point_order(std::span(job.part.positions).subspan(core))) {
+    order.push_back(static_cast<std::uint32_t>(core + i));
+  }
+  job.part = job.part.select(order);
   if (!job.part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(job.part, job.normals));
   codec::TileResult result;
   SSPC_ASSIGN_OR_RETURN(result.model, codec::build_model(job.part, job.build, &result.stats));

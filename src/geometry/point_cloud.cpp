@@ -1,7 +1,10 @@
 #include "sspc/point_cloud.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+
+#include "core/parallel.hpp"
 
 namespace sspc {
 
@@ -50,6 +53,22 @@ PointCloud PointCloud::slice(std::size_t begin, std::size_t end) const {
     if (from.empty()) return;
     to.assign(from.begin() + static_cast<std::ptrdiff_t>(begin * per_point),
               from.begin() + static_cast<std::ptrdiff_t>(end * per_point));
+  });
+  out.las.extra_bytes_per_point = las.extra_bytes_per_point;
+  out.origin = origin;
+  out.metadata = metadata;
+  return out;
+}
+
+PointCloud PointCloud::select(std::span<const std::uint32_t> indices) const {
+  PointCloud out;
+  for_each_array(out, *this, [indices](auto& to, const auto& from, std::size_t per_point) {
+    if (from.empty()) return;
+    to.resize(indices.size() * per_point);
+    parallel_for(0, indices.size(), 4096, [&](std::size_t i) {
+      std::copy_n(from.begin() + static_cast<std::ptrdiff_t>(indices[i] * per_point), per_point,
+                  to.begin() + static_cast<std::ptrdiff_t>(i * per_point));
+    });
   });
   out.las.extra_bytes_per_point = las.extra_bytes_per_point;
   out.origin = origin;
