@@ -122,6 +122,10 @@ struct PointCloud {
   // Appends `other`'s points with every per-point array (normals, colours, the LAS fields). The
   // two clouds must carry the same arrays (this one may be empty); origin and metadata stay.
   void append(const PointCloud& other);
+  // The points of `parts`, one after the other, with every per-point array (parts with points
+  // must carry the same arrays; origin and metadata from the first), copied in parallel into one
+  // allocation; each part is freed once copied.
+  static PointCloud concatenate(std::vector<PointCloud> parts);
   // Points [begin, end) with every per-point array, the origin and the metadata.
   PointCloud slice(std::size_t begin, std::size_t end) const;
   // The points at `indices` (each below size()), in that order, with every per-point array, the

@@ -35,6 +35,10 @@ namespace {
 // distance that matters, so the searches return a superset of what the exact rules select.
 constexpr float kSearchSlack = 1e-5f;
 
+// The most points decode_chunks reserves room for in one block's part before decoding it (the
+// part grows past it if it must): a block of 32 patches of 4096 points, resampled 4 × 4, is 2M.
+constexpr std::size_t kMaxReservedPoints = std::size_t{1} << 22;
+
 class BlockSource {
  public:
   virtual ~BlockSource() = default;
@@ -478,6 +482,18 @@ Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::funct
       std::vector<codec::NeighbourInstance> neighbours;
       const DecodedPatches& block = *shared.patch_blocks[b];
       PointCloud& part = parts[b - first];
+      // Room for every point of the block's code words (trimmed code words keep almost all of
+      // theirs; resampled ones decode m × m a point): grown patch by patch instead, the part
+      // was reallocated and its pages faulted in again about a dozen times a block.
+      std::size_t bound = 0;
+      for (const std::uint32_t c : block.codeword) {
+        const auto& words = shared.codeword_blocks[c / impl_->codewords_per_block()];
+        if (words && c >= words->first && c - words->first < words->count()) {
+          bound += words->offsets[c - words->first + 1] - words->offsets[c - words->first];
+        }
+      }
+      const auto m = static_cast<std::size_t>(std::max(1, reader.header().resample));
+      part.reserve(std::min<std::size_t>(bound * m * m, kMaxReservedPoints), reader.header().has_normals(), colours);
       for (std::uint32_t i = 0; i < block.count(); ++i) {
         Status s = impl_->decode_one(shared, block.first + i, options, nullptr, neighbours, part);
         if (!s.ok()) {
@@ -497,12 +513,7 @@ Status CompressedModel::decode_chunks(std::size_t chunk_points, const std::funct
 
     std::size_t total = 0;
     for (const PointCloud& p : parts) total += p.size();
-    PointCloud chunk;
-    chunk.reserve(total, reader.header().has_normals(), colours);
-    for (PointCloud& p : parts) {
-      chunk.append(p);
-      p = PointCloud();
-    }
+    PointCloud chunk = PointCloud::concatenate(std::move(parts));
     if (options.patch_of != nullptr) {
       options.patch_of->clear();
       options.patch_of->reserve(total);

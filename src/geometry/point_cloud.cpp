@@ -47,6 +47,33 @@ void PointCloud::append(const PointCloud& other) {
   if (las.extra_bytes_per_point == 0) las.extra_bytes_per_point = other.las.extra_bytes_per_point;
 }
 
+PointCloud PointCloud::concatenate(std::vector<PointCloud> parts) {
+  PointCloud out;
+  if (parts.empty()) return out;
+  std::vector<std::size_t> first(parts.size() + 1, 0);
+  for (std::size_t p = 0; p < parts.size(); ++p) first[p + 1] = first[p] + parts[p].size();
+  out.origin = parts.front().origin;
+  out.metadata = parts.front().metadata;
+  out.las.extra_bytes_per_point = parts.front().las.extra_bytes_per_point;
+  // Every array sized once, each part's share copied by its own task: one thread appending
+  // part after part was 7% of a 2-thread decode_all of dragon_scans, and growing the arrays
+  // faulted their pages in twice.
+  for (const PointCloud& part : parts) {  // an empty part carries no arrays: each is sized by the first that has it
+    for_each_array(out, part, [&](auto& to, const auto& from, std::size_t per_point) {
+      if (to.empty() && !from.empty()) to.resize(first.back() * per_point);
+    });
+  }
+  parallel_for(0, parts.size(), 1, [&](std::size_t p) {
+    PointCloud& target = out;  // the arrays are sized: each task writes its own range
+    for_each_array(target, parts[p], [&](auto& to, const auto& from, std::size_t per_point) {
+      if (to.empty()) return;
+      std::copy(from.begin(), from.end(), to.begin() + static_cast<std::ptrdiff_t>(first[p] * per_point));
+    });
+    parts[p] = PointCloud();
+  });
+  return out;
+}
+
 PointCloud PointCloud::slice(std::size_t begin, std::size_t end) const {
   PointCloud out;
   for_each_array(out, *this, [begin, end](auto& to, const auto& from, std::size_t per_point) {

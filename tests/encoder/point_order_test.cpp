@@ -1,6 +1,7 @@
 // The order the encoder takes a cloud's points in (codec::point_order, src/encoder/spatial_order.hpp):
 // Morton order, ties by position, so that the same points in any order give the same file,
-// untiled and tiled; and PointCloud::select, which reorders a cloud with every per-point array.
+// untiled and tiled; and PointCloud::select and PointCloud::concatenate, which reorder and join
+// clouds with every per-point array.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -64,6 +65,26 @@ TEST(PointOrder, SelectCarriesEveryArrayWithItsPoint) {
   ASSERT_EQ(picked.size(), 3u);
   EXPECT_EQ(picked.positions[1], cloud.positions[7]);
   EXPECT_EQ(picked.las.intensity[2], cloud.las.intensity[0]);
+}
+
+TEST(PointOrder, ConcatenateJoinsPartsWithEveryArray) {
+  PointCloud cloud = attributed_torus();
+  cloud.origin = Vec3d(1, 2, 3);
+  std::vector<PointCloud> parts;
+  parts.push_back(PointCloud());  // an empty part first: it carries no arrays
+  for (std::size_t begin = 0, size = 1; begin < cloud.size(); begin += size, size = 3 * size + 1) {
+    parts.push_back(cloud.slice(begin, std::min(cloud.size(), begin + size)));
+  }
+  parts.push_back(PointCloud());
+  parts[0].origin = cloud.origin;
+  const PointCloud joined = PointCloud::concatenate(std::move(parts));
+  ASSERT_TRUE(joined.validate().ok());
+  EXPECT_EQ(joined.positions, cloud.positions);
+  EXPECT_EQ(joined.normals, cloud.normals);
+  EXPECT_EQ(joined.colours, cloud.colours);
+  EXPECT_EQ(joined.las.intensity, cloud.las.intensity);
+  EXPECT_EQ(joined.origin, cloud.origin);
+  EXPECT_TRUE(PointCloud::concatenate({}).empty());
 }
 
 TEST(PointOrder, IsAPermutationInMortonOrderWhateverTheInputOrder) {
