@@ -258,7 +258,6 @@ StatusOr<DecodedSampling> whole_sampling(const CompressedModel& model) {
   return sampling_from(spacing, std::move(reach));
 }
 
-
 class CompressedScene final : public render::BrickScene {
  public:
   Status build(std::shared_ptr<const CompressedModel> model, float bandwidth, std::uint64_t budget,
