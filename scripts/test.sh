@@ -37,10 +37,16 @@ stage_done "release tests"
 # At -O1 with line tables only, like the TSan build below: the stack traces keep their lines and
 # compiles faster than -O2 -g. The sanitizer builds compile the libraries as unity batches
 # (SSPC_UNITY_BUILD); the release build above compiles every source on its own, so a missing
-# #include still fails CI.
+# #include still fails CI. UBSan's alignment check is left out: it instruments every member
+# access and reference binding, and cost 18-20% of this build's compile time (the CLI's unity
+# batch 55.7 s with it, 45.5 s without; the I/O tests' 44.6 s and 37.5 s), which CI's 15 minutes
+# cannot spare. Our decoders copy bytes with memcpy; the one cast of bytes to a struct reads the
+# kernel's directory entries, which are 8-byte aligned. The other UBSan checks (overflow, shifts,
+# bounds, casts, null) stay.
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer build"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSSPC_WERROR=ON \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DSSPC_SANITIZE=address,undefined -DSSPC_BUILD_BENCH=OFF \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG -fno-sanitize=alignment" \
+  -DSSPC_SANITIZE=address,undefined -DSSPC_BUILD_BENCH=OFF \
   -DSSPC_BUILD_PYTHON=OFF -DSSPC_UNITY_BUILD=ON
 cmake --build build-asan -j "$jobs"
 stage_done "ASan+UBSan build"
