@@ -114,6 +114,32 @@ MlsSurface::MlsSurface(std::span<const Vec3f> points, std::span<const Vec3f> nor
     }
   });
 
+  for (int level = 0; level < 2; ++level) {
+    const int shift = kBlockShift * (level + 1);
+    std::size_t blocks = 1;
+    for (int a = 0; a < 3; ++a) {
+      block_dims_[level][a] = ((dims_[a] - 1) >> shift) + 1;
+      blocks *= static_cast<std::size_t>(block_dims_[level][a]);
+    }
+    block_near_[level].assign(blocks / 64 + 1, 0);
+  }
+  for (int iz = 0; iz < dims_[2]; ++iz) {
+    for (int iy = 0; iy < dims_[1]; ++iy) {
+      for (int ix = 0; ix < dims_[0]; ++ix) {
+        if (!near(cell_index(ix, iy, iz))) continue;
+        for (int level = 0; level < 2; ++level) {
+          const int shift = kBlockShift * (level + 1);
+          const auto& bd = block_dims_[level];
+          const std::size_t b = static_cast<std::size_t>(ix >> shift) +
+                                static_cast<std::size_t>(bd[0]) * (static_cast<std::size_t>(iy >> shift) +
+                                                                   static_cast<std::size_t>(bd[1]) *
+                                                                       static_cast<std::size_t>(iz >> shift));
+          block_near_[level][b >> 6] |= std::uint64_t{1} << (b & 63);
+        }
+      }
+    }
+  }
+
   // The support at the points themselves, on a sample of them: its median is what the interior
   // of the surface rests on, and a fraction of it is where the surface ends.
   if (!(edge_support > 0)) return;
@@ -155,7 +181,7 @@ Box3f MlsSurface::box() const {
 
 std::size_t MlsSurface::memory_bytes() const {
   return 6 * size_ * sizeof(float) + ids_.size() * sizeof(std::uint32_t) + start_.size() * sizeof(std::uint32_t) +
-         near_.size() * sizeof(std::uint64_t);
+         (near_.size() + block_near_[0].size() + block_near_[1].size()) * sizeof(std::uint64_t);
 }
 
 bool MlsSurface::evaluate(const Vec3f& x, const Vec3f& facing, Vec3f& a, Vec3f& n, float& support) const {
