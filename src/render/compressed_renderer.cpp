@@ -12,6 +12,7 @@
 // while the model itself stays compressed.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -238,9 +239,16 @@ StatusOr<DecodedSampling> decoded_sampling(const CompressedModel& model) {
 // on either side of a rung of the spacing ladder (render::ladder_spacing), the two renders take
 // bandwidths 9% apart and differ as any two bandwidths do: the bunny's level-9 model scored 32.8
 // dB against the render of its decode (192², its points encoded in Morton order), inf measured whole.
-StatusOr<DecodedSampling> whole_sampling(const CompressedModel& model) {
-  SSPC_ASSIGN_OR_RETURN(const PointCloud all, model.decode_all());
-  if (all.size() < 2) return sampling_from(static_cast<double>(model.info().spacing), {});
+//
+// The header's count of source points, which chose this path, is data like any other: the
+// decode (render::decode_within) is given up once it holds more than `max_points`, and then
+// this gives nullopt and the caller samples instead, so that a header understating its points
+// cannot make the scene decode beyond its budget.
+StatusOr<std::optional<DecodedSampling>> whole_sampling(const CompressedModel& model, std::uint64_t max_points) {
+  SSPC_ASSIGN_OR_RETURN(const std::optional<PointCloud> decoded, render::decode_within(model, max_points));
+  if (!decoded) return std::optional<DecodedSampling>();
+  const PointCloud& all = *decoded;
+  if (all.size() < 2) return std::optional(sampling_from(static_cast<double>(model.info().spacing), {}));
   SSPC_RETURN_IF_ERROR(check_coordinate_range(all.positions));
   const KdTree3 tree(all.positions, kBrickTreeLeaf);
   const double spacing = nominal_spacing(tree);
@@ -255,7 +263,7 @@ StatusOr<DecodedSampling> whole_sampling(const CompressedModel& model) {
     }
   });
   std::erase(reach, -1.0f);
-  return sampling_from(spacing, std::move(reach));
+  return std::optional(sampling_from(spacing, std::move(reach)));
 }
 
 class CompressedScene final : public render::BrickScene {
@@ -323,8 +331,14 @@ Status CompressedScene::build(std::shared_ptr<const CompressedModel> model, floa
   budget_ = budget;
   model_budget_ = budget / kModelCacheShare;
   model_->set_cache_budget(budget);
-  const bool whole = info.source_points <= kWholeDecodePoints && info.source_points * kWholeDecodeBytes <= budget;
-  SSPC_ASSIGN_OR_RETURN(const DecodedSampling sampling, whole ? whole_sampling(*model_) : decoded_sampling(*model_));
+  std::optional<DecodedSampling> measured;
+  if (info.source_points <= kWholeDecodePoints && info.source_points * kWholeDecodeBytes <= budget) {
+    SSPC_ASSIGN_OR_RETURN(measured, whole_sampling(*model_, budget / kWholeDecodeBytes));
+  }
+  if (!measured) {
+    SSPC_ASSIGN_OR_RETURN(measured, decoded_sampling(*model_));
+  }
+  const DecodedSampling sampling = *measured;
   budget -= model_budget_;
   // On the ladder surface_spacing puts a point cloud's spacing on, so that this estimate and
   // the decode's (another sample of the same points) give the same bandwidth.
@@ -570,6 +584,34 @@ StatusOr<CompressedScene::SurfacePtr> CompressedScene::load_cells(int level, std
 }
 
 }  // namespace
+
+namespace render {
+
+StatusOr<std::optional<PointCloud>> decode_within(const CompressedModel& model, std::uint64_t max_points) {
+  const std::size_t patches = model.patch_count();
+  std::vector<PointCloud> parts(patches);
+  std::vector<Status> failed(patches);
+  std::atomic<std::uint64_t> decoded{0};
+  std::atomic<bool> over{false};
+  parallel_for(0, patches, 1, [&](std::size_t k) {
+    if (over.load(std::memory_order_relaxed)) return;
+    auto part = model.decode_patch(k);
+    if (!part.ok()) {
+      failed[k] = part.status();
+      return;
+    }
+    if (decoded.fetch_add(part->size(), std::memory_order_relaxed) + part->size() > max_points) {
+      over.store(true, std::memory_order_relaxed);
+      return;
+    }
+    parts[k] = std::move(part).value();
+  });
+  if (over.load()) return std::optional<PointCloud>();
+  for (const Status& s : failed) SSPC_RETURN_IF_ERROR(s);
+  return std::optional(PointCloud::concatenate(std::move(parts)));
+}
+
+}  // namespace render
 
 StatusOr<std::unique_ptr<RenderScene>> RenderScene::from_compressed(std::shared_ptr<const CompressedModel> model,
                                                                     const SceneOptions& options) {

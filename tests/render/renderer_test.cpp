@@ -16,6 +16,7 @@
 #include <random>
 #include <vector>
 
+#include "render/brick_scene.hpp"
 #include "render/camera.hpp"
 #include "render/mls_surface.hpp"
 #include "render/shading.hpp"
@@ -272,6 +273,57 @@ TEST(Renderer, CompressedModelWithAVanishingSpacingIsRefused) {
     ASSERT_FALSE(image.ok());
     EXPECT_NE(image.status().message().find("spacing"), std::string::npos) << image.status().to_string();
   }
+}
+
+// The compressed scene decodes a small model whole to measure its spacing, chosen by the header's
+// count of source points; the decode stops once it holds more points than the budget allows,
+// and below that bound gives decode_all's points.
+TEST(BrickScene, DecodeWithinStopsPastItsBound) {
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  ASSERT_TRUE(encode(synthetic::sphere(4000, 1.0), path, EncodeOptions{}).ok());
+  auto model = CompressedModel::open(path);
+  ASSERT_TRUE(model.ok());
+  const auto all = model->decode_all();
+  ASSERT_TRUE(all.ok());
+  ASSERT_GE(model->patch_count(), 2u);  // so that the bound stops a decode part way
+  const auto whole = render::decode_within(*model, all->size());
+  ASSERT_TRUE(whole.ok() && whole->has_value());
+  EXPECT_EQ((*whole)->positions, all->positions);
+  const auto short_of = render::decode_within(*model, all->size() - 1);
+  ASSERT_TRUE(short_of.ok());
+  EXPECT_FALSE(short_of->has_value());
+}
+
+// A header that understates its points (10 where the model holds 4,000) still renders, the
+// same surface as the honest model's under the same budget: its whole decode passes the budget's
+// bound and the scene samples instead.
+TEST(Renderer, AHeaderThatUnderstatesItsPointsRendersTheSameSurface) {
+  SphereScene scene;
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  ASSERT_TRUE(encode(synthetic::sphere(4000, 1.0), path, EncodeOptions{}).ok());
+  const std::string bytes = slurp(path);
+  std::string hostile = bytes;
+  const std::uint64_t understated = 10;
+  std::memcpy(hostile.data() + 32, &understated, 8);  // the header's source_points; its CRC32 at 192
+  const auto crc = static_cast<std::uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(hostile.data()), 192));
+  std::memcpy(hostile.data() + 192, &crc, 4);
+  auto honest = CompressedModel::from_bytes(bytes);
+  auto lying = CompressedModel::from_bytes(hostile);
+  ASSERT_TRUE(honest.ok() && lying.ok());
+  ASSERT_EQ(lying->info().source_points, 10u);
+  SceneOptions small;
+  small.memory_budget_bytes = 128 << 10;  // 2,048 points at 64 bytes a point: under the model's
+  const auto a = render_compressed(*honest, scene.options, small);
+  const auto b = render_compressed(*lying, scene.options, small);
+  ASSERT_TRUE(a.ok()) << a.status().to_string();
+  ASSERT_TRUE(b.ok()) << b.status().to_string();
+  const auto c = compare_images(*a, *b);
+  ASSERT_TRUE(c.ok());
+  EXPECT_GT(c->hit_both, 1000u);
+  EXPECT_LE(c->one_only_fraction(), 0.01);
+  EXPECT_GE(c->psnr_hit, 35.0);
 }
 
 // The compressed model of the sphere, rendered directly, agrees with the uncompressed render:
