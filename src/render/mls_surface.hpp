@@ -109,7 +109,8 @@ class MlsSurface {
   }
   std::uint32_t cell_begin(std::size_t c) const { return start_[c]; }
   bool near(std::size_t c) const { return ((near_[c >> 6] >> (c & 63)) & 1) != 0; }
-  // Whether some cell of a block of level 0 (kBlock³ cells) or 1 (kBlock⁶) is near a point.
+  // Whether some cell of a block of level 0 (4³ cells: 2^kBlockShift a side) or 1 (16³) is
+  // near a point.
   bool block_near(int level, int bx, int by, int bz) const {
     const auto& dims = block_dims_[level];
     const std::size_t b = static_cast<std::size_t>(bx) +
@@ -180,8 +181,8 @@ inline float MlsSurface::empty_until(const Vec3f& o, const Vec3f& d, float t, fl
     return t < enter ? enter : t;
   }
   if (near(cell_index(c[0], c[1], c[2]))) return t;
-  // Out of the largest empty block that holds the cell: its block of kBlock³ cells, or of
-  // kBlock⁶, when no cell of it is near a point.
+  // Out of the largest empty block that holds the cell: its block of 16³ cells, or of 4³, when
+  // no cell of it is near a point.
   int lo[3] = {c[0], c[1], c[2]}, span = 1;
   for (int level = 1; level >= 0; --level) {
     const int shift = kBlockShift * (level + 1);
