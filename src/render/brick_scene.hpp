@@ -24,13 +24,11 @@
 #include <list>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <span>
 #include <unordered_map>
 #include <vector>
 
 #include "render/mls_surface.hpp"
-#include "sspc/compressed_model.hpp"
 #include "sspc/render.hpp"
 
 namespace sspc::render {
@@ -146,10 +144,5 @@ class BrickScene : public RenderScene {
   mutable std::uint64_t peak_held_bytes_ = 0;
   mutable std::atomic<std::uint64_t> loads_{0};
 };
-
-// The points of model.decode_all(), decoded patch by patch in parallel, or nullopt once they
-// number more than `max_points` (the compressed scene's whole decode: a header's count of source
-// points is data, and one that understates it must not make the scene decode beyond its budget).
-StatusOr<std::optional<PointCloud>> decode_within(const CompressedModel& model, std::uint64_t max_points);
 
 }  // namespace sspc::render

@@ -27,6 +27,7 @@
 #include "core/stopwatch.hpp"
 #include "geometry/normals_steps.hpp"
 #include "render/brick_scene.hpp"
+#include "render/compressed_scene.hpp"
 #include "render/shading.hpp"
 #include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"

@@ -16,7 +16,7 @@
 #include <random>
 #include <vector>
 
-#include "render/brick_scene.hpp"
+#include "render/compressed_scene.hpp"
 #include "render/camera.hpp"
 #include "render/mls_surface.hpp"
 #include "render/shading.hpp"
