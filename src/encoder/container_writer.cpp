@@ -113,10 +113,10 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
         "rotations 4–20)");
   }
   if (o.format_version < 2 || o.format_version > kFormatVersion) {
-    return invalid_argument("the writer writes format versions 2 to 4, not " + std::to_string(o.format_version));
+    return invalid_argument("the writer writes format versions 2 to " + std::to_string(kFormatVersion) + ", not " + std::to_string(o.format_version));
   }
   if (o.resample < -1 || o.resample > kMaxResample || (o.resample > 0 && o.format_version < 4)) {
-    return invalid_argument("resample must be 0 to 4 (-1: chosen by the writer), and needs format version 4");
+    return invalid_argument("resample must be 0 to 4 (-1: chosen by the writer), and needs format version 4 or later");
   }
   if (o.patches_per_block == 0 || o.codewords_per_block == 0) {
     return invalid_argument("patches_per_block and codewords_per_block must be at least 1");
@@ -537,6 +537,7 @@ Status ContainerStreamWriter::add_tile(EncodedModel tile) {
   // the patches of every tile that may neighbour this one's are known.
   express_in_decoded_frames(tile, h);
   if (!m.options.keep_duplicates) merge_duplicate_cells(tile, h);
+  parallel_for(0, tile.codebook.size(), 16, [&](std::size_t c) { choose_codeword_heights(tile.codebook[c], h); });
   // A tile written early was trimmed without this one's patches: none may lie within its reach
   // (else expect_tiles() was given a wrong box and the trim would differ from finish()'s).
   for (std::size_t t = 0; t < m.written_reach.size(); ++t) {

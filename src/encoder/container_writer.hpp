@@ -40,11 +40,13 @@ struct QuantOptions {
   // Store every point of a code word, also several in one grid cell (header flag bit 3);
   // otherwise a cell keeps one (merge_duplicate_cells in encoder/codeword_trim.hpp).
   bool keep_duplicates = false;
-  // The format version to write: 4, or 3 (the columns without version 4's plane-reach contexts)
-  // or 2 (whose code words store duplicates as they are), for comparisons and the golden files.
+  // The format version to write: 5, or 4 (the heights predicted at the cells' corners, without
+  // the encoder's choice of heights, block_codec.cpp), 3 (the columns without version 4's
+  // plane-reach contexts) or 2 (whose code words store duplicates as they are), for comparisons
+  // and the golden files.
   int format_version = kFormatVersion;
   // The header's resample byte (FORMAT.md, "Resampling"): 0 to 4, or -1 to choose by
-  // resample_for() once the code words are known. Version 4 only.
+  // resample_for() once the code words are known. Version 4 and later.
   int resample = -1;
   // Per-point attributes coded per patch (FORMAT.md, "Attributes"): when `attributes.channels`
   // is not 0, the values of each decoded point are those of its nearest point of

@@ -79,6 +79,12 @@ bool codeword_points_fit(const ContainerHeader& header, std::uint64_t points, st
 
 std::string encode_codeword_block(std::span<const Codeword> codewords,
                                   const ContainerHeader& header);
+// Version 5's writer: moves each lowest height of a cell one grid step nearer the columns'
+// prediction where the bits saved are worth the error added (column_coder.hpp, HeightChoice),
+// judged on the code word alone with fresh models, so that its points, and not the blocks they
+// land in, decide (the decoded model does not depend on block sizes or on trimming). Nothing
+// for earlier versions.
+void choose_codeword_heights(Codeword& codeword, const ContainerHeader& header);
 // Fails (kInvalidArgument) when a translation falls off the i32 grid of |v| < 2^24.
 StatusOr<std::string> encode_patch_block(std::span<const PatchInstance> patches,
                                          const ContainerHeader& header);

@@ -30,9 +30,9 @@ constexpr int kWindowColumns = 3;
 // Columns of padding on each side of a row's occupancy and lowest heights (at least the window's).
 constexpr std::int64_t kPad = 4;
 
-// floor(a / b) and the remainder a − b·floor(a / b) ∈ [0, b), for b > 0 and |a|, b < 2^53: the
-// quotient of the doubles (each exact), truncated, is within two of the true one, and the
-// remainder corrects it (std::floor would be a call without SSE4.1). A prediction's 64-bit integer
+// floor(a / b) and the remainder a − b·floor(a / b) ∈ [0, b), for b > 0 and |a|, b < 2^56: the
+// quotient of the doubles (each within a relative 2^−53 of its integer), truncated, is within
+// |a / b|·2^−51 + 2 ≤ 34 of the true one (within two when |a| < 2^53), and the remainder corrects it (std::floor would be a call without SSE4.1). A prediction's 64-bit integer
 // divisions were a third of its time (perf, decode_bench).
 struct FloorDivision {
   std::int64_t quotient, remainder;
@@ -66,8 +66,10 @@ class Rows {
     for (auto& row : occupied_) row.assign(padded_, 0);
     for (auto& row : lowest_) row.assign(padded_, 0);
     for (auto& row : least_) row.assign(padded_, kNone);
+    for (auto& row : place_) row.assign(padded_, 0);
     for (auto& row : stacked_) row.assign(width, 0);
     for (auto* sums : {&n_, &sy_, &syy_, &sz_, &syz_, &hi_}) sums->assign(padded_, 0);
+    szz_.assign(padded_, 0);
     lo_.assign(padded_, kNone);
   }
   void start(std::int64_t row) {
@@ -75,6 +77,7 @@ class Rows {
     std::fill(occupied_[s].begin(), occupied_[s].end(), 0);
     std::fill(lowest_[s].begin(), lowest_[s].end(), 0);
     std::fill(least_[s].begin(), least_[s].end(), kNone);
+    std::fill(place_[s].begin(), place_[s].end(), 0);
     std::fill(stacked_[s].begin(), stacked_[s].end(), 0);
     column_sums(occupied_row(row - 1) - kPad, occupied_row(row - 2) - kPad, occupied_row(row - 3) - kPad,
                 lowest_row(row - 1) - kPad, lowest_row(row - 2) - kPad, lowest_row(row - 3) - kPad,
@@ -84,7 +87,9 @@ class Rows {
     if (row < 0 || column < 0) return false;
     return stacked_[slot(row)][static_cast<std::size_t>(column)] != 0;
   }
-  void set(std::int64_t row, std::int64_t column, std::uint32_t z) {
+  // `place` is the first point's place in its cell, v_x & mask | (v_y & mask) << 8.
+  void set(std::int64_t row, std::int64_t column, std::uint32_t z, std::uint16_t place) {
+    place_[slot(row)][static_cast<std::size_t>(column + kPad)] = place;
     occupied_[slot(row)][static_cast<std::size_t>(column + kPad)] = 1;
     lowest_[slot(row)][static_cast<std::size_t>(column + kPad)] = static_cast<std::int32_t>(z);
     least_[slot(row)][static_cast<std::size_t>(column + kPad)] = static_cast<std::int32_t>(z);
@@ -102,11 +107,12 @@ class Rows {
   // The window's sums for column c: the rows above from the column sums, then the current row's
   // columns c − 3 … c − 1 (empty ones add nothing, their lowest height being 0).
   struct Window {
-    std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
+    std::int64_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0, szz = 0;
     std::uint32_t lo = 0, hi = 0;  // lo > hi when n = 0
   };
   Window window(std::int64_t row, std::int64_t c) const {
     std::int32_t n = 0, sx = 0, sy = 0, sz = 0, sxx = 0, sxy = 0, syy = 0, sxz = 0, syz = 0;
+    std::int64_t szz = 0;
     std::int32_t lo = kNone, hi = 0;
     const auto base = static_cast<std::size_t>(c + kPad - kWindowColumns);
     for (std::int32_t i = 0; i <= 2 * kWindowColumns; ++i) {
@@ -121,6 +127,7 @@ class Rows {
       sz += sz_[j];
       sxz += k * sz_[j];
       syz += syz_[j];
+      szz += szz_[j];
       lo = std::min(lo, lo_[j]);
       hi = std::max(hi, hi_[j]);
     }
@@ -135,10 +142,49 @@ class Rows {
       sxx += k * k * o;
       sz += lowest[k];
       sxz += k * lowest[k];
+      szz += std::int64_t{lowest[k]} * lowest[k];
       lo = std::min(lo, least[k]);
       hi = std::max(hi, lowest[k]);
     }
-    return {n, sx, sy, sz, sxx, sxy, syy, sxz, syz, static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi)};
+    return {n, sx, sy, sz, sxx, sxy, syy, sxz, syz, szz, static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi)};
+  }
+
+  // Version 5's window for cells of 2^t × 2^t columns, t > 0: the same cells, each at its first
+  // point's column, in units of 2^u columns (u = max(0, t − 3)) relative to the column (px, py)
+  // of the point being predicted (its place in the cell). |dx|, |dy| ≤ 32, so every sum and
+  // determinant keeps the bounds of predict_lowest. Cells this sparse are visited one by one.
+  Window point_window(std::int64_t row, std::int64_t c, int t, std::uint32_t px, std::uint32_t py) const {
+    const int u = t > 3 ? t - 3 : 0;
+    const std::int64_t cell = std::int64_t{1} << (t - u);
+    Window w;
+    std::int32_t lo = kNone, hi = 0;
+    const auto add = [&](std::int64_t dr, std::int64_t dc) {
+      const std::size_t s = slot(row + dr), j = static_cast<std::size_t>(c + dc + kPad);
+      if (row + dr < 0 || occupied_[s][j] == 0) return;
+      const std::uint32_t place = place_[s][j];
+      const std::int64_t dx = dc * cell + std::int64_t{(place & 0xFFu) >> u} - std::int64_t{px >> u};
+      const std::int64_t dy = dr * cell + std::int64_t{(place >> 8) >> u} - std::int64_t{py >> u};
+      const std::int64_t z = lowest_[s][j];
+      ++w.n;
+      w.sx += dx;
+      w.sy += dy;
+      w.sxx += dx * dx;
+      w.sxy += dx * dy;
+      w.syy += dy * dy;
+      w.sz += z;
+      w.sxz += dx * z;
+      w.syz += dy * z;
+      w.szz += z * z;
+      lo = std::min(lo, least_[s][j]);
+      hi = std::max(hi, lowest_[s][j]);
+    };
+    for (std::int64_t dr = -kWindowRows; dr < 0; ++dr) {
+      for (std::int64_t dc = -kWindowColumns; dc <= kWindowColumns; ++dc) add(dr, dc);
+    }
+    for (std::int64_t dc = -kWindowColumns; dc < 0; ++dc) add(0, dc);
+    w.lo = static_cast<std::uint32_t>(lo);
+    w.hi = static_cast<std::uint32_t>(hi);
+    return w;
   }
 
  private:
@@ -163,6 +209,7 @@ class Rows {
     std::int32_t* __restrict syz = syz_.data();
     std::int32_t* __restrict lo = lo_.data();
     std::int32_t* __restrict hi = hi_.data();
+    std::int64_t* __restrict szz = szz_.data();
     const std::size_t size = padded_;
     for (std::size_t c = 0; c < size; ++c) {
       const std::int32_t a = o1[c], b = o2[c], d = o3[c];
@@ -171,6 +218,7 @@ class Rows {
       syy[c] = a + 4 * b + 9 * d;
       sz[c] = z1[c] + z2[c] + z3[c];
       syz[c] = -(z1[c] + 2 * z2[c] + 3 * z3[c]);
+      szz[c] = std::int64_t{z1[c]} * z1[c] + std::int64_t{z2[c]} * z2[c] + std::int64_t{z3[c]} * z3[c];
       // By value: std::min's references become loads through selected pointers, which stop
       // the loop vectorising.
       const std::int32_t l12 = l1[c] < l2[c] ? l1[c] : l2[c], z12 = z1[c] > z2[c] ? z1[c] : z2[c];
@@ -183,8 +231,10 @@ class Rows {
   std::vector<std::int32_t> zero_lowest_, zero_least_;
   std::array<std::vector<std::uint8_t>, 4> occupied_;
   std::array<std::vector<std::int32_t>, 4> lowest_, least_;
+  std::array<std::vector<std::uint16_t>, 4> place_;
   std::array<std::vector<std::uint8_t>, 4> stacked_;
   std::vector<std::int32_t> n_, sy_, syy_, sz_, syz_, lo_, hi_;
+  std::vector<std::int64_t> szz_;
 };
 
 // The ten template cells of the column being coded, in three shift registers that move one column
@@ -210,6 +260,10 @@ class OccupancyWindow {
   const std::uint8_t* above2_;
   std::uint32_t row_ = 0, up_ = 0, up2_ = 0;
 };
+
+// 128-bit integers for version 5's residual class (GCC and Clang; the one product that needs
+// them, D·Σz², reaches 2^74).
+__extension__ using Int128 = __int128;
 
 struct Prediction {
   std::uint32_t value = 0;
@@ -247,11 +301,17 @@ std::size_t quarter(std::int64_t t, std::int64_t den) {
 // The lowest height of column (r, c) predicted from the columns behind it in the window: none,
 // the raster-previous column's; one to three, their mean; four or more, the least-squares plane
 // z = a + b·dx + c·dy through them evaluated at (0, 0), in exact integer arithmetic (the mean
-// when they are collinear). The context is the kind (0, 1, 2) × min(bit width of the heights'
-// spread, 4). Every sum is bounded by the window (n ≤ 24, z < 2^16), so each determinant stays
-// below 2^40.
-Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits) {
-  const auto [n, sx, sy, sz, sxx, sxy, syy, sxz, syz, lo, hi] = rows.window(r, c);
+// when they are collinear). Versions 3 and 4 place each window cell at its offset in cells and
+// the context is the kind (0, 1, 2) × min(bit width of the heights' spread, 4). Version 5 places
+// each at its first point's column relative to the predicted point's (point_window; the same
+// offsets when t = 0), and a plane's context is its residuals' class instead of the spread
+// (docs/FORMAT.md, "The columns"). With |dx|, |dy| ≤ 32, n ≤ 24 and z < 2^16 the cofactors stay
+// below 2^31, D below 2^37 and the numerators below 2^53; Q needs 128 bits.
+Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits,
+                          bool point_plane, int t, std::uint32_t px, std::uint32_t py) {
+  const bool at_point = point_plane && t > 0;
+  const auto [n, sx, sy, sz, sxx, sxy, syy, sxz, syz, szz, lo, hi] =
+      at_point ? rows.point_window(r, c, t, px, py) : rows.window(r, c);
   if (n == 0) return {previous, 0, 1, 0};
   const std::size_t spread = std::min<std::size_t>(static_cast<std::size_t>(std::bit_width(hi - lo)), 4);
   const auto by_mean = [&, n = n, sz = sz] {
@@ -272,15 +332,28 @@ Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std:
   std::int64_t det_a = sz * c00 + sxz * c01 + syz * c02;
   const std::int64_t det_e = sz * c01 + sxz * c11 + syz * c12;
   const std::int64_t det_f = sz * c02 + sxz * c12 + syz * c22;
+  std::size_t context = 10 + spread;
+  if (point_plane) {
+    // Q = D·ZZ − (A·Z + E·XZ + F·YZ) = D·RSS, RSS the plane's residual sum of squares; the
+    // class is min(bit width of ⌊2·rms⌋, 4) with rms² = RSS / (n − 3), by comparisons.
+    const Int128 q = Int128{det} * szz - (Int128{det_a} * sz + Int128{det_e} * sxz + Int128{det_f} * syz);
+    const Int128 rss4 = 4 * (q < 0 ? -q : q);
+    const Int128 unit = Int128{n - 3} * (det < 0 ? -det : det);
+    context = 10 + static_cast<std::size_t>(rss4 >= unit) + static_cast<std::size_t>(rss4 >= 4 * unit) +
+              static_cast<std::size_t>(rss4 >= 16 * unit) + static_cast<std::size_t>(rss4 >= 64 * unit);
+  }
   if (det < 0) {
     det = -det;
     det_a = -det_a;
   }
-  const auto [plane, t] = floor_divide(2 * det_a + det, 2 * det);
+  const auto [plane, rest] = floor_divide(2 * det_a + det, 2 * det);
   const std::int64_t top = (std::int64_t{1} << bits) - 1;
-  const std::int64_t gradient = (det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f);
+  // The plane's rise across one cell (version 5 measures in units of 2^u columns, a cell being
+  // 2^(t−u) of them).
+  const int per_cell = at_point ? t - (t > 3 ? t - 3 : 0) : 0;
+  const std::int64_t gradient = ((det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f)) << per_cell;
   const std::size_t slope = 2 * gradient < det ? 0 : gradient < det ? 1 : gradient < 2 * det ? 2 : 3;
-  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), 10 + spread, quarter(t, det), slope,
+  return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), context, quarter(rest, det), slope,
           det, 2 * det_a + gradient};
 }
 
@@ -321,11 +394,47 @@ std::int64_t code_residual(Io& io, std::uint16_t& zero, std::uint16_t& sign, Val
   return negative != 0 ? -m : m;
 }
 
+// What it costs now to code a lowest height's residual with one context's models, in bits.
+double residual_cost(std::int64_t residual, std::uint16_t zero, std::uint16_t sign, const ValueModel& magnitude) {
+  if (residual == 0) return bit_cost(zero, 1);
+  const std::int64_t m = residual < 0 ? -residual : residual;
+  return bit_cost(zero, 0) + bit_cost(sign, residual < 0 ? 1u : 0u) + magnitude.cost(static_cast<std::uint32_t>(m - 1));
+}
+
+// Whether the writer codes the first point of point `i`'s cell one grid step nearer the
+// prediction than where it lies (HeightChoice): only where its true height lies between the two
+// steps' centres, and when the squared error it adds, in steps², costs less than λ times the
+// bits it saves.
+bool one_step_nearer(const HeightChoice& choice, std::size_t i, std::int64_t residual, std::uint16_t zero,
+                     std::uint16_t sign, const ValueModel& magnitude) {
+  const double e = static_cast<double>(choice.fraction[i]);
+  if (residual > 0 ? e >= 0 : e <= 0) return false;
+  const double added = 1 - 2 * std::abs(e);  // (1 − |e|)² − e²
+  const double saved = residual_cost(residual, zero, sign, magnitude) -
+                       residual_cost(residual + (residual > 0 ? -1 : 1), zero, sign, magnitude);
+  return added < choice.lambda * saved;
+}
+
+// Whether moving point `i` (the first of its cell) to height z keeps the cell's points distinct
+// and in coded order: the cell's further points in its column lie above it (shift 0: one
+// column, by gaps of at least 1 without the duplicates flag).
+bool height_is_free(std::span<const Point> truth, std::size_t i, int shift, bool duplicates, std::uint32_t z) {
+  const Point& p = truth[i];
+  for (std::size_t j = i + 1; j < truth.size() && truth[j][1] >> shift == p[1] >> shift &&
+                              truth[j][0] >> shift == p[0] >> shift;
+       ++j) {
+    if (truth[j][0] == p[0] && truth[j][1] == p[1] && (truth[j][2] < z || (truth[j][2] == z && !duplicates))) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // The walk; `truth` is empty when decoding, and otherwise in cell order for `shift`. Returns false
 // on a decoded value off the grid, more than max_points points, or an exhausted stream.
 template <typename Io>
 bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates, std::size_t max_points,
-                  std::span<const Point> truth, std::vector<Point>& out) {
+                  std::span<const Point> truth, std::vector<Point>& out, const HeightChoice& choice = {}) {
   const std::uint32_t size = 1u << bits;
   const std::uint32_t cells = size >> shift;  // per axis
   const std::uint32_t mask = (1u << shift) - 1;
@@ -366,17 +475,24 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
         ox = io.direct(here ? truth[cursor][0] & mask : 0, shift);
         oy = io.direct(here ? truth[cursor][1] & mask : 0, shift);
       }
-      const Prediction pred = predict_lowest(rows, r, c, previous, bits);
+      const Prediction pred = predict_lowest(rows, r, c, previous, bits, m.point_plane, shift, ox, oy);
       const std::size_t near = pred.context * 4 + pred.fraction;
+      std::int64_t residual = 0;
+      if (here) {
+        residual = static_cast<std::int64_t>(truth[cursor][2]) - static_cast<std::int64_t>(pred.value);
+        if (!choice.fraction.empty() && residual != 0 &&
+            one_step_nearer(choice, cursor, residual, m.zero[near], m.sign[near], m.magnitude[pred.context]) &&
+            height_is_free(truth, cursor, shift, duplicates, truth[cursor][2] - (residual > 0 ? 1u : 0u) +
+                                                                   (residual < 0 ? 1u : 0u))) {
+          residual += residual > 0 ? -1 : 1;
+        }
+      }
       const std::int64_t z = static_cast<std::int64_t>(pred.value) +
-                             code_residual(io, m.zero[near], m.sign[near], m.magnitude[pred.context],
-                                           here ? static_cast<std::int64_t>(truth[cursor][2]) -
-                                                      static_cast<std::int64_t>(pred.value)
-                                                : 0);
+                             code_residual(io, m.zero[near], m.sign[near], m.magnitude[pred.context], residual);
       if (z < 0 || z >= static_cast<std::int64_t>(size)) return false;
       auto z_here = static_cast<std::uint32_t>(z);
       out.push_back({cx << shift | ox, cy << shift | oy, z_here});
-      rows.set(r, c, z_here);
+      rows.set(r, c, z_here, static_cast<std::uint16_t>(ox | oy << 8));
       previous = z_here;
       // Further points of the cell: up the column (shift 0), or anywhere in it.
       const std::size_t stack_context = rows.stacked(r, c - 1) || rows.stacked(r - 1, c) ? 1 : 0;
@@ -417,6 +533,7 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
 
 ColumnModels::ColumnModels(int format_version)
     : plane_reach(format_version >= 4),
+      point_plane(format_version >= 5),
       empty(kProbabilityHalf),
       other_zero(kProbabilityHalf),
       other_sign(kProbabilityHalf) {
@@ -505,15 +622,17 @@ std::vector<std::uint32_t> column_order(std::span<const Point> points, int shift
 }
 
 void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const Point> points, int bits, int shift,
-                    bool duplicates) {
+                    bool duplicates, const HeightChoice& choice, std::vector<Point>* coded) {
   SSPC_DCHECK(bits >= 1 && bits <= 16 && shift >= 0 && shift < bits && shift <= kMaxColumnShift);
   ColumnEncoding io{rc};
   if (io.bit(m.empty, points.empty() ? 1u : 0u) != 0) return;
   io.value(m.shift, static_cast<std::uint32_t>(shift));
   std::vector<Point> out;
   out.reserve(points.size());
-  const bool walked = walk_columns(io, m, bits, shift, duplicates, points.size(), points, out);
+  SSPC_DCHECK(choice.fraction.empty() || choice.fraction.size() == points.size());
+  const bool walked = walk_columns(io, m, bits, shift, duplicates, points.size(), points, out, choice);
   SSPC_DCHECK(walked && out.size() == points.size());
+  if (coded != nullptr) *coded = std::move(out);
 }
 
 bool decode_columns(RangeDecoder& rc, ColumnModels& m, int bits, std::size_t max_points, bool duplicates,

@@ -1,4 +1,4 @@
-// The position coder of versions 3 and 4's code words (docs/FORMAT.md, "The columns"): a code word's
+// The position coder of versions 3 to 5's code words (docs/FORMAT.md, "The columns"): a code word's
 // grid points as columns along its frame's z axis, which is the patch's mean normal. The
 // occupied columns are a binary image over the code word's bounding rectangle, coded cell by
 // cell under a context of ten cells already coded (as JBIG codes bilevel images); each column's
@@ -27,7 +27,8 @@ namespace sspc::codec {
 inline constexpr std::size_t kMaxColumnPointsPerByte = 1024;
 
 // The adaptive models of one code-book block's code words (reset per block, so that blocks
-// decode independently), for the format version the block belongs to: version 4 splits each of
+// decode independently), for the format version the block belongs to (version 5 changes only how
+// heights are predicted and their contexts chosen, not the models): version 4 splits each of
 // version 3's contexts of "another point" five ways by where the predicted plane reaches
 // (docs/FORMAT.md, "The columns").
 struct ColumnModels {
@@ -35,8 +36,9 @@ struct ColumnModels {
   static constexpr std::size_t kHeightContexts = 15;  // 3 predictor kinds × 5 spreads
   static constexpr std::size_t kAnotherContexts = 24;  // version 3's; version 4 has 5 × as many
   static constexpr std::size_t kReaches = 5;
-  explicit ColumnModels(int format_version = 4);
+  explicit ColumnModels(int format_version = 5);
   bool plane_reach;  // version 4's contexts
+  bool point_plane;  // version 5's plane at each point's own column, its context by the residuals
   std::uint16_t empty;
   std::array<ValueModel, 4> rectangle;  // x0, y0, width − 1, height − 1
   std::array<std::uint16_t, kOccupancyContexts> occupied;
@@ -48,6 +50,17 @@ struct ColumnModels {
   std::uint16_t other_zero, other_sign;                  // a further point's height in a cell
   ValueModel other_magnitude;                            // of shift > 0, against the previous
   std::array<ValueModel, 2> gap;         // to the next point up the column
+};
+
+// The writer's choice of lowest heights (version 5 writes; block_codec.cpp): `fraction[i]` is
+// where point i's true height lies in its grid step, in steps from the step's centre ([−½, ½]).
+// A first point of a cell whose true height lies between its step's centre and the prediction's
+// may be coded one step nearer the prediction: that adds 1 − 2|e| steps² of squared error and
+// saves the bits a likelier residual saves, and the writer takes it when the error added is
+// below λ times the bits saved. Empty: every height as it lies.
+struct HeightChoice {
+  std::span<const float> fraction;
+  double lambda = 0;
 };
 
 // Sparse code words are coded on cells of 2^shift × 2^shift grid columns, each point's place in
@@ -74,7 +87,8 @@ std::vector<std::uint32_t> column_order(std::span<const std::array<std::uint32_t
 // be in column_order for `shift` (0 ≤ shift < bits, shift ≤ kMaxColumnShift) and,
 // unless `duplicates`, distinct.
 void encode_columns(RangeEncoder& rc, ColumnModels& m, std::span<const std::array<std::uint32_t, 3>> points,
-                    int bits, int shift, bool duplicates);
+                    int bits, int shift, bool duplicates, const HeightChoice& choice = {},
+                    std::vector<std::array<std::uint32_t, 3>>* coded = nullptr);
 
 // Decodes one code word's points, in column_order, appending them to `out`. Fails
 // (false) on a value off the grid, on more than `max_points` points, or when the stream runs out.

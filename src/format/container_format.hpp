@@ -13,10 +13,10 @@ namespace sspc::codec {
 // "\x8A S P C \r \n \x1A \n": high bit set (7-bit transfers), CR LF and LF (line-ending
 // conversion either way), Ctrl-Z (stops an MS-DOS `type`). See FORMAT.md.
 inline constexpr std::array<std::uint8_t, 8> kMagic = {0x8A, 'S', 'P', 'C', 0x0D, 0x0A, 0x1A, 0x0A};
-// The version the writer writes, and the oldest one readers still decode. Versions 2, 3 and 4
+// The version the writer writes, and the oldest one readers still decode. Versions 2 to 5
 // changed only the code-book blocks' position layout (FORMAT.md, "Code-book blocks"; version 4
-// only the columns' contexts of "another point").
-inline constexpr std::uint16_t kFormatVersion = 4;
+// only the columns' contexts of "another point", version 5 only their height prediction).
+inline constexpr std::uint16_t kFormatVersion = 5;
 inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;

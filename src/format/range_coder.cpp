@@ -63,6 +63,27 @@ void ValueModel::reset() {
   for (auto& m : mantissa_) m.fill(kProbabilityHalf);
 }
 
+double ValueModel::cost(std::uint32_t value) const {
+  const auto length = static_cast<std::uint32_t>(std::bit_width(value));
+  double bits = 0;
+  std::uint32_t node = 1;
+  for (int i = 4; i >= 0; --i) {
+    const unsigned bit = (length >> i) & 1u;
+    bits += bit_cost(length_[node], bit);
+    node = (node << 1) | bit;
+  }
+  if (length < 2) return bits;
+  const int rest = static_cast<int>(length) - 1;
+  const int modelled = rest < 2 ? rest : 2;
+  node = 1;
+  for (int i = 0; i < modelled; ++i) {
+    const unsigned bit = (value >> (rest - 1 - i)) & 1u;
+    bits += bit_cost(mantissa_[length][node], bit);
+    node = (node << 1) | bit;
+  }
+  return bits + (rest - modelled);
+}
+
 void ValueModel::encode(RangeEncoder& rc, std::uint32_t value) {
   const auto length = static_cast<std::uint32_t>(std::bit_width(value));  // 0 for 0, ≤ 16
   std::uint32_t node = 1;

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -90,6 +91,8 @@ class ValueModel {
   void reset();
   void encode(RangeEncoder& rc, std::uint32_t value);
   std::uint32_t decode(RangeDecoder& rc);
+  // What encode() would cost now, in bits: an encoder's estimate, which changes nothing.
+  double cost(std::uint32_t value) const;
 
   static constexpr int kMaxBits = 16;
 
@@ -97,6 +100,12 @@ class ValueModel {
   std::array<std::uint16_t, 32> length_;
   std::array<std::array<std::uint16_t, 4>, kMaxBits + 1> mantissa_;
 };
+
+// What coding `bit` with probability p of a 0 costs, in bits (an encoder's estimate).
+inline double bit_cost(std::uint16_t p, unsigned bit) {
+  const double zero = static_cast<double>(p) / static_cast<double>(1u << kProbabilityBits);
+  return -std::log2(bit == 0 ? zero : 1.0 - zero);
+}
 
 inline void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
   const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
