@@ -275,7 +275,6 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   constexpr std::size_t kLeafPoints = 24;
   std::optional<KdTree3> tree(std::in_place, cloud.positions, kLeafPoints);
   codec::BuildOptions build = build_options(options);
-  if (!options.patch_points) build.level.patch_points = codec::patch_points_for(build.level, cloud.size());
   // What the model derives from the positions alone (spacing, patch radius, the centres'
   // Poisson-disk start), derived while the normals are oriented, on the core Prim's sequential
   // algorithm leaves idle: autzen 34.4-35.4 -> 33.3-33.5 s (two interleaved runs), same bytes.

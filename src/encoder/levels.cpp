@@ -1,6 +1,5 @@
 #include "encoder/levels.hpp"
 
-#include <algorithm>
 #include <array>
 
 namespace sspc::codec {
@@ -29,7 +28,6 @@ namespace {
 //   patterns of period 5 or more: level 3 takes 0.5 spacings, not 0.4 (bunny 1.18 → 1.07×
 //   G-PCC's bits at 59.5 dB instead of 61.4, igea 1.04 → 0.86×, dragon_scans, whose 15 scans
 //   leave no lattice, 1.13 → 1.11×; FORMAT_NOTES.md, "Level table").
-constexpr int kRowPatchPoints = 4096;  // levels 0-6 (patch_points_for)
 constexpr std::array<LevelParams, 10> kLevels = {{
     {4096, 0.50f, 0.04f, 0.08f},
     {4096, 0.50f, 0.07f, 0.14f},
@@ -46,22 +44,5 @@ constexpr std::array<LevelParams, 10> kLevels = {{
 }  // namespace
 
 LevelParams level_params(int level) { return kLevels[static_cast<std::size_t>(level)]; }
-
-// Larger patches cost fewer transforms and fewer code-word borders, and a code word must stay
-// a height field in its frame: a patch holding a sixteenth of a model's points covers about a
-// sixteenth of its surface, whatever the density, so on a small or curved object (bunny's
-// 34,834 points) the rows' 4096 stay, and a large scan takes up to 16384. Against the rows'
-// 4096 at levels 0-6, bits over G-PCC's at equal PSNR: igea (134k points, 8,397 a patch)
-// 1.5-7% fewer at every level (level 6 0.94 -> 0.88, level 5 0.90 -> 0.88), dragon_scans
-// (468k, 16384) -1% to +0.4% (level 5 1.127 -> 1.113), autzen (10.7M, 16384) level 5 1.19 ->
-// 1.16; bunny with 8192 would have lost 1-2% and with 16384 8-15% (its patches no longer
-// height fields). The coarse rows (levels 7-9, 8192 and 16384 points, resampled) keep theirs:
-// dragon_scans' level 7 with 16384 lost 1% (1.14 -> 1.15), igea's with 8,397 0.9%.
-int patch_points_for(const LevelParams& level, unsigned long long points) {
-  if (level.patch_points > kRowPatchPoints) return level.patch_points;
-  const unsigned long long sixteenth = points / 16;
-  const auto model = static_cast<int>(std::min<unsigned long long>(sixteenth, kMaxModelPatchPoints));
-  return std::max(level.patch_points, model);
-}
 
 }  // namespace sspc::codec

@@ -21,10 +21,4 @@ inline constexpr int kDefaultLevel = 5;
 // Requires kMinLevel ≤ level ≤ kMaxLevel.
 LevelParams level_params(int level);
 
-// The points a patch holds in a model of `points` points: at levels 0-6 the row's, or a
-// sixteenth of the model where that is more, up to kMaxModelPatchPoints; levels 7-9 their
-// rows' (levels.cpp says why).
-inline constexpr int kMaxModelPatchPoints = 16384;
-int patch_points_for(const LevelParams& level, unsigned long long points);
-
 }  // namespace sspc::codec

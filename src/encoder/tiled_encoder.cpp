@@ -18,7 +18,6 @@
 #include "core/parallel.hpp"
 #include "core/stopwatch.hpp"
 #include "encoder/encode_steps.hpp"
-#include "encoder/levels.hpp"
 #include "encoder/patch_centres.hpp"
 #include "encoder/spatial_order.hpp"
 #include "encoder/tile_job.hpp"
@@ -97,8 +96,6 @@ Status TiledEncoder::Impl::measure() {
   sampled.resize(std::min<std::size_t>(sampled.size(), 8));
   std::sort(sampled.begin(), sampled.end());
   const std::uint64_t total = store->input().points;
-  // The patch size of the whole model's point count, as an untiled encode takes it.
-  if (!options.patch_points) build.level.patch_points = codec::patch_points_for(build.level, total);
 
   // A tile's own points, each with its distance to the tile's faces, one tile at a time.
   struct Own {
