@@ -51,6 +51,10 @@ FloorDivision floor_divide(std::int64_t a, std::int64_t b) {
   return {q, r};
 }
 
+// Version 5 measures a window on cells of 2^t columns in units of 2^unit_shift(t) columns, so
+// that an offset spans at most 32 units whatever t (docs/FORMAT.md, "The columns").
+constexpr int unit_shift(int t) { return t > 3 ? t - 3 : 0; }
+
 // The last four rows of the rectangle: occupancy, lowest height (0 where a column is empty), and
 // whether a column holds more than one point; row r lives in slot r mod 4, padded by kPad
 // columns on each side. When a row starts, each column's sums over the window's three rows above
@@ -161,7 +165,7 @@ class Rows {
   // (an empty cell's offsets multiplied by 0 and its height 0): with a branch per cell, level 1
   // of dragon_scans decoded 1.6 times slower than version 4, the same walk.
   Window point_window(std::int64_t row, std::int64_t c, int t, std::uint32_t px, std::uint32_t py) const {
-    const int u = t > 3 ? t - 3 : 0;
+    const int u = unit_shift(t);
     const std::int32_t x0 = static_cast<std::int32_t>((c << (t - u)) + (px >> u));
     const std::int32_t y0 = static_cast<std::int32_t>((row << (t - u)) + (py >> u));
     // 32 bits hold every sum but Σz² (|dx| ≤ 32, z < 2^16, 24 cells: |Σdx·z| < 2^26).
@@ -321,7 +325,7 @@ std::size_t quarter(std::int64_t t, std::int64_t den) {
 // offsets when t = 0), and a plane's context is its residuals' class instead of the spread
 // (docs/FORMAT.md, "The columns"). With |dx|, |dy| ≤ 32, n ≤ 24 and z < 2^16 the cofactors stay
 // below 2^31, D below 2^37 and the numerators below 2^53; Q needs 128 bits.
-[[gnu::always_inline]] inline Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits,
+Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std::uint32_t previous, int bits,
                           bool point_plane, int t, std::uint32_t px, std::uint32_t py) {
   const bool at_point = point_plane && t > 0;
   const auto [n, sx, sy, sz, sxx, sxy, syy, sxz, syz, szz, lo, hi] =
@@ -364,7 +368,7 @@ std::size_t quarter(std::int64_t t, std::int64_t den) {
   const std::int64_t top = (std::int64_t{1} << bits) - 1;
   // The plane's rise across one cell (version 5 measures in units of 2^u columns, a cell being
   // 2^(t−u) of them).
-  const int per_cell = at_point ? t - (t > 3 ? t - 3 : 0) : 0;
+  const int per_cell = at_point ? t - unit_shift(t) : 0;
   const std::int64_t gradient = ((det_e < 0 ? -det_e : det_e) + (det_f < 0 ? -det_f : det_f)) << per_cell;
   const std::size_t slope = 2 * gradient < det ? 0 : gradient < det ? 1 : gradient < 2 * det ? 2 : 3;
   return {static_cast<std::uint32_t>(std::clamp<std::int64_t>(plane, 0, top)), context, quarter(rest, det), slope,
@@ -507,7 +511,7 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
       auto z_here = static_cast<std::uint32_t>(z);
       out.push_back({cx << shift | ox, cy << shift | oy, z_here});
       if (m.point_plane && shift > 0) {
-        const int u = shift > 3 ? shift - 3 : 0;
+        const int u = unit_shift(shift);
         rows.set(r, c, z_here, static_cast<std::int32_t>((c << (shift - u)) + (ox >> u)),
                  static_cast<std::int32_t>((r << (shift - u)) + (oy >> u)));
       } else {
