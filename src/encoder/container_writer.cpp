@@ -969,11 +969,11 @@ StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOpt
   return writer.take_bytes();
 }
 
-StatusOr<ContainerStats> write_container(const EncodedModel& model, const QuantOptions& options,
+StatusOr<ContainerStats> write_container(EncodedModel model, const QuantOptions& options,
                                          const std::filesystem::path& path) {
   SSPC_RETURN_IF_ERROR(check_attribute_source(options));
   SSPC_ASSIGN_OR_RETURN(ContainerStreamWriter writer, ContainerStreamWriter::to_file(model, options, path));
-  SSPC_RETURN_IF_ERROR(writer.add_tile(model));
+  SSPC_RETURN_IF_ERROR(writer.add_tile(std::move(model)));
   const std::shared_ptr<const PointCloud> source(options.attribute_source, [](const PointCloud*) {});
   return writer.finish([&](std::size_t, std::shared_ptr<const PointCloud>& out) {
     out = source;

@@ -151,7 +151,7 @@ StatusOr<std::string> encode_container(const EncodedModel& model, const QuantOpt
                                        ContainerStats* stats = nullptr);
 
 // The same written atomically to `path` (a temporary file renamed over it).
-StatusOr<ContainerStats> write_container(const EncodedModel& model, const QuantOptions& options,
+StatusOr<ContainerStats> write_container(EncodedModel model, const QuantOptions& options,
                                          const std::filesystem::path& path);
 
 }  // namespace sspc::codec
