@@ -1,7 +1,9 @@
 // One point per occupied cell of the code words' grid by default, every point with
 // --keep-duplicates (docs/FORMAT.md, header flag bit 3), and each representative decoding its own
 // points whatever its transform's quantisation (encoder/codeword_trim.hpp).
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <vector>
 
@@ -50,6 +52,35 @@ TEST(Duplicates, MergedByDefaultKeptOnRequest) {
   EXPECT_NEAR(static_cast<double>(merged), 3600.0, 36.0);
   EXPECT_NEAR(static_cast<double>(kept), 7200.0, 72.0);
   EXPECT_LT(std::filesystem::file_size(dir.path() / "merged.sspc"), std::filesystem::file_size(dir.path() / "kept.sspc"));
+}
+
+// A cloud whose spacing a few far points set (the median nearest-neighbour distance over four
+// distinct positions, two of them 0.05 apart, is 3.3) once quantised every patch on a grid
+// coarser than the patches, and decoded to no point (the encode round trip's fuzzer found it).
+// Each distinct position must come back within its patch's grid step.
+TEST(Duplicates, OutliersThatSetTheSpacingLoseNoPoint) {
+  PointCloud c;
+  for (int i = 0; i < 27; ++i) c.positions.emplace_back(0.09f, 0.09f, 0.09f);
+  c.positions.emplace_back(0.14f, 0.09f, 0.09f);
+  c.positions.emplace_back(0.09f, 2.47f, 2.46f);
+  c.positions.emplace_back(2.46f, 2.46f, 0.09f);
+  test::TempDir dir;
+  for (const int level : {5, 7, 9}) {
+    EncodeOptions options;
+    options.level = level;
+    auto stats = encode(c, dir.path() / "outliers.sspc", options);
+    ASSERT_TRUE(stats.ok()) << stats.status().to_string();
+    EXPECT_LE(stats->position_step, static_cast<double>(stats->patch_radius) / 8 * (1 + 1e-6)) << "level " << level;
+    auto model = CompressedModel::open(dir.path() / "outliers.sspc");
+    ASSERT_TRUE(model.ok()) << model.status().to_string();
+    auto all = model->decode_all();
+    ASSERT_TRUE(all.ok()) << all.status().to_string();
+    for (const Vec3f& p : {Vec3f(0.09f, 0.09f, 0.09f), Vec3f(0.09f, 2.47f, 2.46f), Vec3f(2.46f, 2.46f, 0.09f)}) {
+      float nearest = std::numeric_limits<float>::infinity();
+      for (const Vec3f& q : all->positions) nearest = std::min(nearest, (q - p).norm());
+      EXPECT_LE(nearest, static_cast<float>(stats->position_step)) << "level " << level << ": " << p.transpose();
+    }
+  }
 }
 
 // Without instancing every patch is its code word's representative, and a reader decodes a
