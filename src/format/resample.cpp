@@ -93,7 +93,11 @@ void CodewordFit::resample(std::uint32_t i, int m, float step, std::vector<Vec3f
       points.push_back((origin + (u * g) * t1 + (v * g) * t2 + z * n).cast<float>());
       if (normals == nullptr) continue;
       const double du = (c[1] + 2 * c[3] * u + c[4] * v) / g, dv = (c[2] + c[4] * u + 2 * c[5] * v) / g;
-      normals->push_back((n - du * t1 - dv * t2).normalized().cast<float>());
+      // The fit's normal, or the neighbours' where it has none: a step of 0 (a header's patch
+      // radius among float's subnormals, the decoder's fuzzer found) makes the slopes 0/0.
+      const Eigen::Vector3d bent = n - du * t1 - dv * t2;
+      const double length = bent.norm();
+      normals->push_back((std::isfinite(length) && length > 0 ? Eigen::Vector3d(bent / length) : n).cast<float>());
     }
   }
 }

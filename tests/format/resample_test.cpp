@@ -107,6 +107,23 @@ TEST(Resample, TooFewPointsForAFitGiveTheTangentPlaneOfTheFrame) {
   EXPECT_FLOAT_EQ(out[3].y(), 2.25f);
 }
 
+// A step of 0 or below float's normals (a hostile header's patch radius of 9e-44) makes the
+// fit's slopes 0/0: every point and normal must still be finite, the normals unit.
+TEST(Resample, AVanishingStepGivesFiniteNormals) {
+  const std::vector<Vec3f> points = grid_surface(5, 0.5f, [](float x, float y) { return 0.1f * x + 0.2f * y; });
+  const CodewordFit surface(points);
+  for (const float step : {0.0f, 1e-45f, 4e-44f}) {
+    std::vector<Vec3f> out, normals;
+    surface.resample(index_of(points, Vec3f(0, 0, 0)), 2, step, out, &normals);
+    ASSERT_EQ(normals.size(), 4u);
+    for (std::size_t s = 0; s < out.size(); ++s) {
+      EXPECT_TRUE(out[s].allFinite()) << "step " << step;
+      EXPECT_TRUE(normals[s].allFinite()) << "step " << step;
+      EXPECT_NEAR(normals[s].norm(), 1.0f, 1e-5f) << "step " << step;
+    }
+  }
+}
+
 TEST(Resample, TheWritersRuleResamplesCoarseGridsOnly) {
   EXPECT_EQ(resample_for(1000, 800, 2.0), 0);   // the decode holds 80%
   EXPECT_EQ(resample_for(1000, 500, 0.5), 0);   // a grid finer than the spacing: duplicates lost
