@@ -246,7 +246,7 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--tau", o->tau, "MLS error threshold in point spacings (overrides the level)")
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");
-  app->add_option("--step", o->step, "Code-word grid step in point spacings (overrides the level)")
+  app->add_option("--step", o->step, "Code-word grid step in point spacings (overrides the level; at most an eighth of the patch radius)")
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");
   app->add_option("--position-bits", o->position_bits,
