@@ -153,7 +153,8 @@ ContainerChoice container_options(const EncodeOptions& options, const codec::Bui
     // fuzzer). Every level of the real scans lies far below it (bunny level 9: 0.045 of the
     // patch radius), and their files are unchanged.
     const double level_step = static_cast<double>(build.level.position_step) * build_stats.spacing;
-    choice.step = static_cast<float>(std::min(level_step, static_cast<double>(codec::position_step(radius, codec::kMinPositionBits))));
+    const auto coarsest = static_cast<double>(codec::position_step(radius, codec::kMinPositionBits));
+    choice.step = static_cast<float>(std::min(level_step, coarsest));
     quant.position_step = choice.step;
     quant.position_bits = codec::position_bits_for_step(static_cast<double>(radius), static_cast<double>(choice.step));
   }

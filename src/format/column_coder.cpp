@@ -254,7 +254,8 @@ class Rows {
   }
   // Out of line: inlined into the walk, the loop lost its pointers' restrict and ran scalar.
   // Columns [offset, offset + size) of the padded rows.
-  [[gnu::noinline]] void column_sums(std::size_t offset, std::size_t size, const std::uint8_t* __restrict o1, const std::uint8_t* __restrict o2,
+  [[gnu::noinline]] void column_sums(std::size_t offset, std::size_t size, const std::uint8_t* __restrict o1,
+                   const std::uint8_t* __restrict o2,
                    const std::uint8_t* __restrict o3, const std::int32_t* __restrict z1,
                    const std::int32_t* __restrict z2, const std::int32_t* __restrict z3,
                    const std::int32_t* __restrict l1, const std::int32_t* __restrict l2,
@@ -400,27 +401,28 @@ Prediction predict_lowest(const Rows& rows, std::int64_t r, std::int64_t c, std:
   if (point_plane) {
     // Q = D·ZZ − (A·Z + E·XZ + F·YZ) = D·RSS, RSS the plane's residual sum of squares; the
     // class is min(bit width of ⌊2·rms⌋, 4) with rms² = RSS / (n − 3), by comparisons.
+    // (4·|Q| against (n − 3)·|D|, in whichever integer width holds them.)
+    const auto rms_class = [](auto rss4, auto unit) {
+      return static_cast<std::size_t>(rss4 >= unit) + static_cast<std::size_t>(rss4 >= 4 * unit) +
+             static_cast<std::size_t>(rss4 >= 16 * unit) + static_cast<std::size_t>(rss4 >= 64 * unit);
+    };
     const auto abs_det = static_cast<std::uint64_t>(det < 0 ? -det : det);
     const auto zz = static_cast<std::uint64_t>(szz);
     if (std::bit_width(abs_det) <= 50 && std::bit_width(abs_det) + std::bit_width(zz) <= 60) {
-      // The same class in 64 bits (every cell of one grid step, t = 0, and most others): |Q| =
-      // |D|·RSS ≤ |D|·Σz² < 2^60, since no plane fits worse than z = 0, so Q computed modulo
-      // 2^64 is Q itself, whatever its products wrap to; 4·|Q| and 64·(n − 3)·|D| fit too.
-      // Four 128-bit products were a tenth of predict_lowest.
+      // In 64 bits (every cell of one grid step, t = 0, and most others): |Q| = |D|·RSS ≤
+      // |D|·Σz² < 2^60, since no plane fits worse than z = 0, so Q computed modulo 2^64 is Q
+      // itself, whatever its products wrap to; 4·|Q| and 64·(n − 3)·|D| fit too. Four 128-bit
+      // products were a tenth of predict_lowest.
       const auto wrap = [](std::int64_t a, std::int64_t b) {
         return static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(b);
       };
-      const auto q = static_cast<std::int64_t>(wrap(det, szz) - (wrap(det_a, sz) + wrap(det_e, sxz) + wrap(det_f, syz)));
-      const std::uint64_t rss4 = 4 * static_cast<std::uint64_t>(q < 0 ? -q : q);
-      const std::uint64_t unit = static_cast<std::uint64_t>(n - 3) * abs_det;
-      context = 10 + static_cast<std::size_t>(rss4 >= unit) + static_cast<std::size_t>(rss4 >= 4 * unit) +
-                static_cast<std::size_t>(rss4 >= 16 * unit) + static_cast<std::size_t>(rss4 >= 64 * unit);
+      const auto q = static_cast<std::int64_t>(wrap(det, szz) -
+                                               (wrap(det_a, sz) + wrap(det_e, sxz) + wrap(det_f, syz)));
+      context = 10 + rms_class(4 * static_cast<std::uint64_t>(q < 0 ? -q : q),
+                               static_cast<std::uint64_t>(n - 3) * abs_det);
     } else {
       const Int128 q = Int128{det} * szz - (Int128{det_a} * sz + Int128{det_e} * sxz + Int128{det_f} * syz);
-      const Int128 rss4 = 4 * (q < 0 ? -q : q);
-      const Int128 unit = Int128{n - 3} * (det < 0 ? -det : det);
-      context = 10 + static_cast<std::size_t>(rss4 >= unit) + static_cast<std::size_t>(rss4 >= 4 * unit) +
-                static_cast<std::size_t>(rss4 >= 16 * unit) + static_cast<std::size_t>(rss4 >= 64 * unit);
+      context = 10 + rms_class(4 * (q < 0 ? -q : q), Int128{n - 3} * (det < 0 ? -det : det));
     }
   }
   if (det < 0) {

@@ -3,8 +3,8 @@
 // points whatever its transform's quantisation (encoder/codeword_trim.hpp).
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 #include <gtest/gtest.h>
