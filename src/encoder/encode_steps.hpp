@@ -16,7 +16,9 @@ namespace sspc::encoding {
 Status check_options(const EncodeOptions& options);
 // A cloud of `points` points within `bounds`: at least 16, fewer than 2^32, not all in one place.
 Status check_size(std::uint64_t points, const Box3f& bounds);
-codec::BuildOptions build_options(const EncodeOptions& options);
+// The level's row for a model of `points` points (codec::level_params), with the options'
+// overrides.
+codec::BuildOptions build_options(const EncodeOptions& options, std::uint64_t points);
 
 // The weighted median of (value, weight) pairs: the value where the weights' running sum first
 // reaches half their total.

@@ -120,9 +120,9 @@ double weighted_median(std::vector<std::pair<double, std::size_t>> v) {
   return v.empty() ? 0.0 : v.back().first;
 }
 
-codec::BuildOptions build_options(const EncodeOptions& options) {
+codec::BuildOptions build_options(const EncodeOptions& options, std::uint64_t points) {
   codec::BuildOptions build;
-  build.level = codec::level_params(options.level);
+  build.level = codec::level_params(options.level, points);
   if (options.patch_points) build.level.patch_points = *options.patch_points;
   if (options.epsilon) build.level.epsilon = *options.epsilon;
   if (options.tau) build.level.tau = *options.tau;
@@ -289,7 +289,7 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
   // 34.6-36.1 s (two interleaved runs), the same bytes.
   constexpr std::size_t kLeafPoints = 24;
   std::optional<KdTree3> tree(std::in_place, cloud.positions, kLeafPoints);
-  codec::BuildOptions build = build_options(options);
+  codec::BuildOptions build = build_options(options, cloud.size());
   // What the model derives from the positions alone (spacing, patch radius, the centres'
   // Poisson-disk start), derived while the normals are oriented, on the core Prim's sequential
   // algorithm leaves idle: autzen 34.4-35.4 -> 33.3-33.5 s (two interleaved runs), same bytes.

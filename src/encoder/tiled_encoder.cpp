@@ -68,7 +68,7 @@ struct TiledEncoder::Impl {
     auto impl = std::make_unique<Impl>();
     impl->options = options;
     impl->options.progress = nullptr;
-    impl->build = build_options(options);
+    impl->build = build_options(options, 0);  // the level's row for the whole model: measure()
     impl->build.progress = nullptr;
     impl->normals = options.normals;
     impl->normals.progress = nullptr;
@@ -96,6 +96,8 @@ Status TiledEncoder::Impl::measure() {
   sampled.resize(std::min<std::size_t>(sampled.size(), 8));
   std::sort(sampled.begin(), sampled.end());
   const std::uint64_t total = store->input().points;
+  // The patch size follows the whole model's points, as an untiled encode's does.
+  build.level = build_options(options, total).level;
 
   // A tile's own points, each with its distance to the tile's faces, one tile at a time.
   struct Own {

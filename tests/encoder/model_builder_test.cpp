@@ -54,6 +54,32 @@ BuildOptions options_for_level(int level) {
   return options;
 }
 
+// Large models take larger patches (levels.cpp): powers of two up to 16384, never below the
+// row's, and the models of objects (up to 2^21 points) keep the rows' sizes.
+TEST(LevelParams, PatchSizeFollowsLargeModels) {
+  for (int level = kMinLevel; level <= kMaxLevel; ++level) {
+    const int row = level_params(level).patch_points;
+    EXPECT_EQ(level_params(level, 468479).patch_points, row) << level;   // dragon_scans
+    EXPECT_EQ(level_params(level, 2097151).patch_points, row) << level;
+    EXPECT_EQ(level_params(level, 10653336).patch_points, kMaxModelPatchPoints) << level;  // autzen
+    EXPECT_EQ(level_params(level, 1ull << 40).patch_points, kMaxModelPatchPoints) << level;
+    int previous = row;
+    for (std::uint64_t points = 1u << 20; points <= (1u << 24); points += points / 3) {
+      const int size = level_params(level, points).patch_points;
+      EXPECT_GE(size, previous) << level << " " << points;
+      EXPECT_EQ(size & (size - 1), 0) << size;
+      EXPECT_LE(static_cast<std::uint64_t>(size), std::max<std::uint64_t>(points / 512, static_cast<std::uint64_t>(row)));
+      previous = size;
+    }
+    // Everything else is the row's.
+    const LevelParams big = level_params(level, 10653336);
+    EXPECT_EQ(big.epsilon, level_params(level).epsilon);
+    EXPECT_EQ(big.tau, level_params(level).tau);
+    EXPECT_EQ(big.position_step, level_params(level).position_step);
+  }
+  EXPECT_EQ(level_params(5, 5000000).patch_points, 8192);
+}
+
 TEST(ModelBuilder, SelfSimilarBumpsShareFewCodewords) {
   const PointCloud cloud = tiled_bumps(36, 25);
   BuildStats stats;
