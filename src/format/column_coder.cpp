@@ -302,29 +302,100 @@ class Rows {
   Span summed_;
 };
 
-// The ten template cells of the column being coded, in three shift registers that move one column
-// right per cell: the row's two cells before it (bit 0 the nearer), the row above's five from
-// offset −2 to 2 and the row above that's three from −1 to 1 (bit 0 the leftmost). Their
-// concatenation numbers the context (computing it from ten loads per cell was 9% of a decode).
+// The ten template cells of the column being coded, and version 6's six farther ones, in four
+// shift registers that move one column right per cell: the row's three cells before it (bit 0
+// the nearer), the row above's seven from offset −3 to 3, the row above that's five from −2 to
+// 2 (bit 0 the leftmost) and the cell three rows above. The ten cells' concatenation numbers the
+// context (computing it from ten loads per cell was 9% of a decode).
 class OccupancyWindow {
  public:
-  OccupancyWindow(const std::uint8_t* above, const std::uint8_t* above2) : above_(above), above2_(above2) {
-    for (int k = 0; k < 5; ++k) up_ |= static_cast<std::uint32_t>(above_[k - 2]) << k;
-    for (int k = 0; k < 3; ++k) up2_ |= static_cast<std::uint32_t>(above2_[k - 1]) << k;
+  OccupancyWindow(const std::uint8_t* above, const std::uint8_t* above2, const std::uint8_t* above3)
+      : above_(above), above2_(above2), above3_(above3) {
+    for (int k = 0; k < 7; ++k) up_ |= static_cast<std::uint32_t>(above_[k - 3]) << k;
+    for (int k = 0; k < 5; ++k) up2_ |= static_cast<std::uint32_t>(above2_[k - 2]) << k;
+    up3_ = above3_[0];
   }
-  std::size_t context() const { return std::size_t{row_ | up_ << 2 | up2_ << 7}; }
+  // The ten cells T[k] of docs/FORMAT.md as one number (another numbering of the same 1024
+  // contexts, which codes every bit with the same probability).
+  std::size_t context() const { return std::size_t{(row_ & 3u) | (up_ & 0x3Eu) << 1 | (up2_ & 0xEu) << 6}; }
+  // Version 6's secondary context: bit j the cell at S[j] of docs/FORMAT.md.
+  std::size_t farther() const {
+    return std::size_t{(row_ >> 2 & 1u) | (up_ & 1u) << 1 | (up_ >> 6 & 1u) << 2 | (up2_ & 1u) << 3 |
+                       (up2_ >> 4 & 1u) << 4 | up3_ << 5};
+  }
   // Moves from column c to c + 1, column c's cell being `occupied`.
   void next(std::int64_t c, unsigned occupied) {
-    row_ = ((row_ << 1) | occupied) & 3u;
-    up_ = (up_ >> 1) | static_cast<std::uint32_t>(above_[c + 3]) << 4;
-    up2_ = (up2_ >> 1) | static_cast<std::uint32_t>(above2_[c + 2]) << 2;
+    row_ = ((row_ << 1) | occupied) & 7u;
+    up_ = (up_ >> 1) | static_cast<std::uint32_t>(above_[c + 4]) << 6;
+    up2_ = (up2_ >> 1) | static_cast<std::uint32_t>(above2_[c + 3]) << 4;
+    up3_ = above3_[c + 1];
   }
 
  private:
   const std::uint8_t* above_;
   const std::uint8_t* above2_;
-  std::uint32_t row_ = 0, up_ = 0, up2_ = 0;
+  const std::uint8_t* above3_;
+  std::uint32_t row_ = 0, up_ = 0, up2_ = 0, up3_ = 0;
 };
+
+// Version 6's secondary estimate of an occupancy bit (docs/FORMAT.md, "The columns"): the primary
+// probability's place among 33 nodes of its log-odds, K[i] being the logistic function at
+// (i − 16) / 2, and the nodes of the farther cells' state interpolated there. Integers only, so
+// that every platform codes the same bits. Priced on every code word of level 5 (models fresh per
+// block, as the format has them), against the ten cells alone: occupancy bits −4.9% on
+// dragon_scans, −5.1% on autzen, −1.8% on igea, −1.9% on bunny; linear buckets of the
+// probability instead of its log-odds −3.4% and −4.2% on the first two; reading and moving only
+// the nearer node −4.0% and −4.1%; leaving out the cells whose sixteen are all empty (30% of
+// them) −4.3% and −4.4% (FORMAT_NOTES.md, "Cost of code-word positions"). It costs a whole
+// decode 15-17% of its speed (two dependent loads and a product more on the chain from one
+// decoded bit to the next).
+constexpr std::array<std::int32_t, ColumnModels::kSecondaryNodes> kKnots = {
+    1, 1, 2, 3, 5, 8, 14, 23, 37, 60, 97, 155, 244, 374, 551, 773, 1024,
+    1275, 1497, 1674, 1804, 1893, 1951, 1988, 2011, 2025, 2034, 2040, 2043, 2045, 2046, 2047, 2047};
+
+// π(p) for every probability p < 2048, in 64ths of a node.
+constexpr std::array<std::uint16_t, 2048> make_places() {
+  std::array<std::uint16_t, 2048> places{};
+  for (std::int32_t p = 0; p < 2048; ++p) {
+    std::int32_t i = 0;
+    while (i < 31 && kKnots[static_cast<std::size_t>(i) + 1] <= p) ++i;
+    const std::int32_t lo = kKnots[static_cast<std::size_t>(i)], hi = kKnots[static_cast<std::size_t>(i) + 1];
+    const std::int32_t within = hi > lo ? std::min(63, 64 * (p - lo) / (hi - lo)) : 63;
+    places[static_cast<std::size_t>(p)] = static_cast<std::uint16_t>(std::clamp(64 * i + within, 0, 2047));
+  }
+  return places;
+}
+constexpr std::array<std::uint16_t, 2048> kPlaces = make_places();
+
+// Codes one occupancy bit: with the primary model alone (versions 3-5), or refined by the
+// secondary estimate of the farther cells' state (version 6), after which the primary model
+// and the two nodes adapt to the bit.
+template <typename Io>
+unsigned occupancy_bit(Io& io, ColumnModels& m, const OccupancyWindow& window, unsigned value) {
+  const std::size_t context = window.context();
+  std::uint16_t& primary = m.occupied[context];
+  if (!m.secondary) return io.bit(primary, value);
+  auto& row = m.apm[window.farther()];
+  // kPlaces[primary], read beside it: looked up after it, the place was one more load on the
+  // chain from each decoded bit to the next (dragon_scans level 5, one thread, best of 15 in
+  // three interleaved runs: 64-71 -> 62-64 ms).
+  const std::uint32_t place = m.occupied_place[context];
+  const std::size_t j = place >> 6;
+  const std::uint32_t w = place & 63u;
+  const std::uint32_t refined = (std::uint32_t{row[j]} * (64 - w) + std::uint32_t{row[j + 1]} * w) >> 11;
+  // At most (2047 + 3·2047 + 2) / 4 = 2047; 0 only where both are at their least.
+  const std::uint32_t p = std::max<std::uint32_t>((primary + 3 * refined + 2) >> 2, 1);
+  const unsigned bit = io.bit_with(p, value);
+  adapt_probability(primary, bit);
+  m.occupied_place[context] = kPlaces[primary];
+  const std::int32_t target = bit == 0 ? 65535 : 0;
+  const auto move = [target](std::uint16_t& node, std::uint32_t weight) {
+    node = static_cast<std::uint16_t>(node + (((target - node) * static_cast<std::int32_t>(weight)) >> 10));
+  };
+  move(row[j], 64 - w);
+  move(row[j + 1], w);
+  return bit;
+}
 
 // 128-bit integers for version 5's residual class (GCC and Clang; the one product that needs
 // them, D·Σz², reaches 2^74).
@@ -446,6 +517,10 @@ struct ColumnEncoding {
     rc.encode(p, value);
     return value;
   }
+  unsigned bit_with(std::uint32_t p, unsigned value) {
+    rc.encode_with(p, value);
+    return value;
+  }
   std::uint32_t value(ValueModel& m, std::uint32_t v) {
     m.encode(rc, v);
     return v;
@@ -460,6 +535,7 @@ struct ColumnEncoding {
 struct ColumnDecoding {
   RangeDecoder& rc;
   unsigned bit(std::uint16_t& p, unsigned /*value*/) { return rc.decode(p); }
+  unsigned bit_with(std::uint32_t p, unsigned /*value*/) { return rc.decode_with(p); }
   std::uint32_t value(ValueModel& m, std::uint32_t /*v*/) { return m.decode(rc); }
   std::uint32_t direct(std::uint32_t /*v*/, int n) { return rc.decode_direct(n); }
   bool exhausted() const { return rc.overrun(); }
@@ -543,12 +619,12 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
   for (std::int64_t r = 0; r < height; ++r) {
     if (io.exhausted()) return false;
     rows.start(r, !(m.point_plane && shift > 0));
-    OccupancyWindow window(rows.occupied_row(r - 1), rows.occupied_row(r - 2));
+    OccupancyWindow window(rows.occupied_row(r - 1), rows.occupied_row(r - 2), rows.occupied_row(r - 3));
     const std::uint32_t cy = y0 + static_cast<std::uint32_t>(r);
     for (std::int64_t c = 0; c < width; ++c) {
       const std::uint32_t cx = x0 + static_cast<std::uint32_t>(c);
       const bool here = in_cell(cursor, cx, cy);
-      const unsigned occupied = io.bit(m.occupied[window.context()], here ? 1u : 0u);
+      const unsigned occupied = occupancy_bit(io, m, window, here ? 1u : 0u);
       window.next(c, occupied);
       if (occupied == 0) continue;
       if (++produced > max_points) return false;
@@ -623,10 +699,15 @@ bool walk_columns(Io& io, ColumnModels& m, int bits, int shift, bool duplicates,
 ColumnModels::ColumnModels(int format_version)
     : plane_reach(format_version >= 4),
       point_plane(format_version >= 5),
+      secondary(format_version >= 6),
       empty(kProbabilityHalf),
       other_zero(kProbabilityHalf),
       other_sign(kProbabilityHalf) {
   occupied.fill(kProbabilityHalf);
+  for (auto& row : apm) {
+    for (std::size_t i = 0; i < kSecondaryNodes; ++i) row[i] = static_cast<std::uint16_t>(32 * kKnots[i]);
+  }
+  occupied_place.fill(kPlaces[kProbabilityHalf]);
   zero.fill(kProbabilityHalf);
   sign.fill(kProbabilityHalf);
   another.fill(kProbabilityHalf);

@@ -1,4 +1,4 @@
-// The position coder of versions 3 to 5's code words (docs/FORMAT.md, "The columns"): a code word's
+// The position coder of versions 3 to 6's code words (docs/FORMAT.md, "The columns"): a code word's
 // grid points as columns along its frame's z axis, which is the patch's mean normal. The
 // occupied columns are a binary image over the code word's bounding rectangle, coded cell by
 // cell under a context of ten cells already coded (as JBIG codes bilevel images); each column's
@@ -29,19 +29,29 @@ inline constexpr std::size_t kMaxColumnPointsPerByte = 1024;
 // The adaptive models of one code-book block's code words (reset per block, so that blocks
 // decode independently), for the format version the block belongs to (version 5 changes only how
 // heights are predicted and their contexts chosen, not the models): version 4 splits each of
-// version 3's contexts of "another point" five ways by where the predicted plane reaches
-// (docs/FORMAT.md, "The columns").
+// version 3's contexts of "another point" five ways by where the predicted plane reaches, and
+// version 6 refines each occupancy bit's probability by six farther cells (docs/FORMAT.md, "The
+// columns").
 struct ColumnModels {
   static constexpr std::size_t kOccupancyContexts = 1024;
   static constexpr std::size_t kHeightContexts = 15;  // 3 predictor kinds × 5 spreads
   static constexpr std::size_t kAnotherContexts = 24;  // version 3's; version 4 has 5 × as many
   static constexpr std::size_t kReaches = 5;
-  explicit ColumnModels(int format_version = 5);
+  static constexpr std::size_t kSecondaryContexts = 64;  // six farther cells
+  static constexpr std::size_t kSecondaryNodes = 33;
+  explicit ColumnModels(int format_version = 6);
   bool plane_reach;  // version 4's contexts
   bool point_plane;  // version 5's plane at each point's own column, its context by the residuals
+  bool secondary;    // version 6's secondary estimates of the occupancy bits
   std::uint16_t empty;
   std::array<ValueModel, 4> rectangle;  // x0, y0, width − 1, height − 1
   std::array<std::uint16_t, kOccupancyContexts> occupied;
+  // Version 6: per state of the six farther cells, the occupancy bit's probability of a 0 (in
+  // 1/65536) at 33 nodes of the primary probability's log-odds (docs/FORMAT.md, "The columns").
+  std::array<std::array<std::uint16_t, kSecondaryNodes>, kSecondaryContexts> apm;
+  // Where each occupancy probability lies among the nodes (a function of it, kept beside it so
+  // that a decode reads both at once instead of one after the other).
+  std::array<std::uint16_t, kOccupancyContexts> occupied_place;
   std::array<std::uint16_t, 4 * kHeightContexts> zero;  // the lowest height's residual is 0
   std::array<std::uint16_t, 4 * kHeightContexts> sign;  // ... and is negative
   std::array<ValueModel, kHeightContexts> magnitude;     // |residual| − 1

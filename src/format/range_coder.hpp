@@ -45,6 +45,8 @@ class RangeEncoder {
   explicit RangeEncoder(std::string& out) : out_(out) {}
   // Codes `bit` with probability-of-zero `p`, then adapts `p`.
   void encode(std::uint16_t& p, unsigned bit);
+  // Codes `bit` with probability-of-zero `p` in (0, 2048), which stays as it is.
+  void encode_with(std::uint32_t p, unsigned bit);
   // Codes the low `bits` bits of `value` as equiprobable bits, the most significant first.
   void encode_direct(std::uint32_t value, int bits);
   // Flushes the last bytes; the encoder must not be used after.
@@ -65,6 +67,8 @@ class RangeDecoder {
  public:
   explicit RangeDecoder(std::span<const std::byte> in);
   unsigned decode(std::uint16_t& p);
+  // A bit of probability-of-zero `p` in (0, 2048), which stays as it is.
+  unsigned decode_with(std::uint32_t p);
   std::uint32_t decode_direct(int bits);
   // True when the stream was well formed (its first byte is 0, as every encoder writes it) and
   // the decoder used exactly all of its bytes.
@@ -107,7 +111,7 @@ inline double bit_cost(std::uint16_t p, unsigned bit) {
   return -std::log2(bit == 0 ? zero : 1.0 - zero);
 }
 
-inline void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
+inline void RangeEncoder::encode_with(std::uint32_t p, unsigned bit) {
   const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
   if (bit == 0) {
     range_ = bound;
@@ -115,11 +119,15 @@ inline void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
     low_ += bound;
     range_ -= bound;
   }
-  adapt_probability(p, bit);
   while (range_ < kRangeTop) {
     range_ <<= 8;
     shift_low();
   }
+}
+
+inline void RangeEncoder::encode(std::uint16_t& p, unsigned bit) {
+  encode_with(p, bit);
+  adapt_probability(p, bit);
 }
 
 inline std::uint8_t RangeDecoder::next() {
@@ -128,7 +136,7 @@ inline std::uint8_t RangeDecoder::next() {
   return 0;
 }
 
-inline unsigned RangeDecoder::decode(std::uint16_t& p) {
+inline unsigned RangeDecoder::decode_with(std::uint32_t p) {
   const std::uint32_t bound = (range_ >> kProbabilityBits) * p;
   unsigned bit;
   if (code_ < bound) {
@@ -139,11 +147,16 @@ inline unsigned RangeDecoder::decode(std::uint16_t& p) {
     range_ -= bound;
     bit = 1;
   }
-  adapt_probability(p, bit);
   while (range_ < kRangeTop) {
     range_ <<= 8;
     code_ = (code_ << 8) | next();
   }
+  return bit;
+}
+
+inline unsigned RangeDecoder::decode(std::uint16_t& p) {
+  const unsigned bit = decode_with(p);
+  adapt_probability(p, bit);
   return bit;
 }
 

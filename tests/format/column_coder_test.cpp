@@ -20,9 +20,12 @@
 namespace sspc::codec {
 namespace {
 
-// ColumnCoder.Version5StreamIsPinned's stream (written by this test when version 5 was made).
+// ColumnCoder.Version5StreamIsPinned's and Version6StreamIsPinned's streams (written by these
+// tests when versions 5 and 6 were made).
 constexpr std::size_t kPinnedVersion5Bytes = 43715;
 constexpr std::uint32_t kPinnedVersion5Crc = 3607470155u;
+constexpr std::size_t kPinnedVersion6Bytes = 42975;
+constexpr std::uint32_t kPinnedVersion6Crc = 560384068u;
 
 using Point = std::array<std::uint32_t, 3>;
 using Points = std::vector<Point>;
@@ -124,7 +127,7 @@ bool decode_all(const std::string& stream, std::size_t words, int bits, bool dup
 }
 
 TEST(ColumnCoder, RoundTripsSurfacesLayersAndEmptyCodewords) {
-  for (const int version : {3, 4, 5}) {
+  for (const int version : {3, 4, 5, 6}) {
     for (const int bits : {4, 6, 9}) {
       SCOPED_TRACE(testing::Message() << "version " << version << ", " << bits << " bits");
       const std::vector<Points> words = {surface(bits, 1, false), {}, surface(bits, 2, true), scattered(bits, 3),
@@ -183,20 +186,67 @@ TEST(ColumnCoder, Version5PredictsEachHeightAtItsOwnColumn) {
   EXPECT_LT(static_cast<double>(v5), 0.97 * static_cast<double>(v4)) << "version 4 " << v4 << " bytes, version 5 " << v5;
 }
 
-// Version 5's stream, pinned: any change to its predictions or contexts changes these bytes (the
-// golden files' small planes code the same stream in versions 4 and 5).
-TEST(ColumnCoder, Version5StreamIsPinned) {
+// The pinned streams' code words, coded one after the other with one version's models.
+std::string pinned_words_stream(int version) {
   const std::vector<Points> words = {surface(9, 1, false), scattered(9, 3), sparse_slope(10, 4), steep_plane(7)};
   std::string stream;
   RangeEncoder rc(stream);
-  ColumnModels m(5);
+  ColumnModels m(version);
   for (std::size_t i = 0; i < words.size(); ++i) {
     const int bits = i == 2 ? 10 : i == 3 ? 7 : 9;
     encode_columns(rc, m, in_column_order(words[i], bits), bits, column_shift(words[i], bits), false);
   }
   rc.finish();
+  return stream;
+}
+
+// Version 5's stream, pinned: any change to its predictions or contexts changes these bytes (the
+// golden files' small planes code the same stream in versions 4 and 5).
+TEST(ColumnCoder, Version5StreamIsPinned) {
+  const std::string stream = pinned_words_stream(5);
   EXPECT_EQ(stream.size(), kPinnedVersion5Bytes);
   EXPECT_EQ(crc32_of(stream_bytes(stream)), kPinnedVersion5Crc);
+}
+
+// Version 6's, pinned as version 5's is: any change to the secondary estimates changes it.
+TEST(ColumnCoder, Version6StreamIsPinned) {
+  const std::string stream = pinned_words_stream(6);
+  EXPECT_EQ(stream.size(), kPinnedVersion6Bytes);
+  EXPECT_EQ(crc32_of(stream_bytes(stream)), kPinnedVersion6Crc);
+}
+
+// Samples on a lattice of 4 × 4 columns (a scanner's grid at four columns a pitch), a few
+// missing, coded one column a cell: in the rows between the lattice's, and between its points
+// along a row, the ten cells see nothing occupied, as they do before a lattice point; the cells
+// three columns or three rows away (version 6's secondary context) tell them apart. Version 5's
+// own stream (which version 6's models must not read as the same points) is the reference.
+TEST(ColumnCoder, Version6LearnsWhatTheFartherCellsForetell) {
+  std::mt19937 rng(5);
+  Points lattice;
+  for (std::uint32_t y = 0; y < 256; y += 4) {
+    for (std::uint32_t x = 0; x < 256; x += 4) {
+      if (rng() % 16 != 0) lattice.push_back({x, y, 100 + (x + 2 * y) / 16});
+    }
+  }
+  const auto code = [&](int version) {
+    std::string out;
+    RangeEncoder rc(out);
+    ColumnModels m(version);
+    for (int w = 0; w < 3; ++w) encode_columns(rc, m, lattice, 8, 0, false);
+    rc.finish();
+    return out;
+  };
+  const std::string v5 = code(5), v6 = code(6);
+  EXPECT_LT(static_cast<double>(v6.size()), 0.8 * static_cast<double>(v5.size()))
+      << "version 5 " << v5.size() << " bytes, version 6 " << v6.size();
+  RangeDecoder rc(stream_bytes(v6));
+  ColumnModels m(6);
+  for (int w = 0; w < 3; ++w) {
+    Points back;
+    ASSERT_TRUE(decode_columns(rc, m, 8, 1u << 20, false, back));
+    EXPECT_EQ(back, lattice);
+  }
+  EXPECT_TRUE(rc.finish());
 }
 
 // The writer's choice of heights: only a cell's first point moves, by one step towards the
