@@ -22,8 +22,10 @@
 
 namespace sspc::codec {
 
-// 8 / 0.0106 ≈ 755 points a byte at most: every point costs at least one modelled decision (its
-// column's occupancy or "another point"), and the most probable bit costs −log2(2033/2048).
+// 8 / 0.0106 ≈ 755 points a byte at most: every point costs at least one decision of an
+// adaptive probability (a cell's first point its height's zero flag, a further point "another
+// point"), whose most probable bit costs −log2(2033/2048). (Version 6's refined occupancy
+// probabilities reach 2047/2048, so the occupancy bit alone would not bound it.)
 inline constexpr std::size_t kMaxColumnPointsPerByte = 1024;
 
 // The adaptive models of one code-book block's code words (reset per block, so that blocks
