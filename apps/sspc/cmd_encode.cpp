@@ -237,7 +237,7 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->check(CLI::Range(0, 9).description(""))
       ->type_name("0..9")
       ->capture_default_str();
-  app->add_option("--patch-points", o->patch_points, "Expected points per patch sphere (overrides the level's, which grows to 16384 past 2M points)")
+  app->add_option("--patch-points", o->patch_points, "Expected points per patch sphere (overrides the level's, which doubles past 4.2M points and again past 8.4M)")
       ->check(CLI::Range(8, 65536).description(""))
       ->type_name("8..65536");
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")

@@ -46,22 +46,21 @@ constexpr std::array<LevelParams, 10> kLevels = {{
 }  // namespace
 
 // Large models take larger patches: at the same step the PSNR does not move with the patch size,
-// and the transforms and code-word borders cost less. autzen (10.6M points) at level 5, bits
-// over G-PCC's at the same PSNR: 1.19 with the row's 4096 points a patch, 1.16 with 16384 and
-// 1.16 with 32768 (docs/FORMAT_NOTES.md, "Level table"). A patch is random access's unit, and a
-// warm patch decode takes time in proportion to its points (dragon_scans at level 5: 8.9 µs
-// with 4096, 33 µs with 16384), so the size follows the model's: a patch's sphere holds at
-// most 1/512 of the model's points, and the models of a few million points that scans of
-// objects are keep the rows' sizes (dragon_scans' 468,479 points, bunny, igea).
-constexpr std::uint64_t kModelPointsPerPatch = 512;
+// and the transforms and code-word borders cost less. autzen (10.6M points), bits over G-PCC's at
+// the same PSNR (docs/FORMAT_NOTES.md, "Level table"): level 5 1.19 with the row's 4096 points a
+// patch, 1.16 with 16384 and 32768; level 7 1.174 with 8192, 1.157 with 16384, 1.143 with
+// 32768; level 8 1.193 with 16384, 1.168 with 32768, 1.156 with 65536; level 9 1.10 with
+// 16384, 1.054 with 32768. A patch is random access's unit, and a warm patch decode takes time in
+// proportion to its points (dragon_scans at level 5: 8.9 µs with 4096, 33 µs with 16384), so the
+// unit grows with the model: the row's size for up to 2^22 points (every scan of an object here:
+// dragon_scans has 468,479), twice it up to 2^23, four times it beyond.
+constexpr int kModelSizeOctaves = 2;  // at most 2^2 = 4 times the row's size
+constexpr std::uint64_t kRowSizePoints = std::uint64_t{1} << 21;
 
 LevelParams level_params(int level, std::uint64_t points) {
   LevelParams row = kLevels[static_cast<std::size_t>(level)];
-  const std::uint64_t share = points / kModelPointsPerPatch;
-  if (share > static_cast<std::uint64_t>(row.patch_points)) {
-    const auto size = std::bit_floor(std::min<std::uint64_t>(share, kMaxModelPatchPoints));
-    row.patch_points = std::max(row.patch_points, static_cast<int>(size));
-  }
+  const std::uint64_t times = std::bit_floor(std::max<std::uint64_t>(points / kRowSizePoints, 1));
+  row.patch_points <<= std::min(std::countr_zero(times), kModelSizeOctaves);
   return row;
 }
 

@@ -19,12 +19,9 @@ inline constexpr int kMinLevel = 0;
 inline constexpr int kMaxLevel = 9;
 inline constexpr int kDefaultLevel = 5;
 
-// The largest patch a model's size gives its level (see level_params).
-inline constexpr int kMaxModelPatchPoints = 16384;
-
-// Requires kMinLevel ≤ level ≤ kMaxLevel. `points`, the model's points when known, raises the
-// row's patch size for large models: to the largest power of two at most points / 512, up to
-// kMaxModelPatchPoints (2.1M points keep the rows' sizes, 8.4M and more take 16384).
+// Requires kMinLevel ≤ level ≤ kMaxLevel. `points`, the model's points when known, scales the
+// row's patch size for large models: the row's up to 2^22 points, twice it up to 2^23, four
+// times it beyond (at most 65536 at levels 8 and 9).
 LevelParams level_params(int level, std::uint64_t points = 0);
 
 }  // namespace sspc::codec

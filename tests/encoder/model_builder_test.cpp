@@ -54,30 +54,29 @@ BuildOptions options_for_level(int level) {
   return options;
 }
 
-// Large models take larger patches (levels.cpp): powers of two up to 16384, never below the
-// row's, and the models of objects (up to 2^21 points) keep the rows' sizes.
+// Large models take larger patches (levels.cpp): the row's size up to 2^22 points (every scan of
+// an object), twice it up to 2^23, four times it beyond, and the rest of the row as it is.
 TEST(LevelParams, PatchSizeFollowsLargeModels) {
   for (int level = kMinLevel; level <= kMaxLevel; ++level) {
-    const int row = level_params(level).patch_points;
-    EXPECT_EQ(level_params(level, 468479).patch_points, row) << level;   // dragon_scans
-    EXPECT_EQ(level_params(level, 2097151).patch_points, row) << level;
-    EXPECT_EQ(level_params(level, 10653336).patch_points, kMaxModelPatchPoints) << level;  // autzen
-    EXPECT_EQ(level_params(level, 1ull << 40).patch_points, kMaxModelPatchPoints) << level;
-    int previous = row;
-    for (std::uint64_t points = 1u << 20; points <= (1u << 24); points += points / 3) {
+    const LevelParams row = level_params(level);
+    EXPECT_EQ(level_params(level, 468479).patch_points, row.patch_points) << level;  // dragon_scans
+    EXPECT_EQ(level_params(level, (1u << 22) - 1).patch_points, row.patch_points) << level;
+    EXPECT_EQ(level_params(level, 1u << 22).patch_points, 2 * row.patch_points) << level;
+    EXPECT_EQ(level_params(level, 5000000).patch_points, 2 * row.patch_points) << level;
+    EXPECT_EQ(level_params(level, 10653336).patch_points, 4 * row.patch_points) << level;  // autzen
+    EXPECT_EQ(level_params(level, 1ull << 40).patch_points, 4 * row.patch_points) << level;
+    EXPECT_LE(level_params(level, 1ull << 40).patch_points, 65536);  // what --patch-points allows
+    int previous = row.patch_points;
+    for (std::uint64_t points = 1u << 20; points <= (1u << 25); points += points / 3) {
       const int size = level_params(level, points).patch_points;
       EXPECT_GE(size, previous) << level << " " << points;
-      EXPECT_EQ(size & (size - 1), 0) << size;
-      EXPECT_LE(static_cast<std::uint64_t>(size), std::max<std::uint64_t>(points / 512, static_cast<std::uint64_t>(row)));
       previous = size;
     }
-    // Everything else is the row's.
     const LevelParams big = level_params(level, 10653336);
-    EXPECT_EQ(big.epsilon, level_params(level).epsilon);
-    EXPECT_EQ(big.tau, level_params(level).tau);
-    EXPECT_EQ(big.position_step, level_params(level).position_step);
+    EXPECT_EQ(big.epsilon, row.epsilon);
+    EXPECT_EQ(big.tau, row.tau);
+    EXPECT_EQ(big.position_step, row.position_step);
   }
-  EXPECT_EQ(level_params(5, 5000000).patch_points, 8192);
 }
 
 TEST(ModelBuilder, SelfSimilarBumpsShareFewCodewords) {
