@@ -50,10 +50,11 @@ constexpr std::array<LevelParams, 10> kLevels = {{
 // the same PSNR (docs/FORMAT_NOTES.md, "Level table"): level 5 1.19 with the row's 4096 points a
 // patch, 1.16 with 16384 and 32768; level 7 1.174 with 8192, 1.157 with 16384, 1.143 with
 // 32768; level 8 1.193 with 16384, 1.168 with 32768, 1.156 with 65536; level 9 1.10 with
-// 16384, 1.054 with 32768. A patch is random access's unit, and a warm patch decode takes time in
-// proportion to its points (dragon_scans at level 5: 8.9 µs with 4096, 33 µs with 16384), so the
-// unit grows with the model: the row's size for up to 2^22 points (every scan of an object here:
-// dragon_scans has 468,479), twice it up to 2^23, four times it beyond.
+// 16384, 1.054 with 32768, 1.028 with 65536 (version 6). A patch is random access's unit, and a
+// warm patch decode takes time in proportion to its points (dragon_scans at level 5: 8.9 µs with
+// 4096, 33 µs with 16384), so the unit grows with the model: the row's size for up to 2^22
+// points (every scan of an object here: dragon_scans has 468,479), twice it up to 2^23, four
+// times it beyond.
 constexpr int kModelSizeOctaves = 2;  // at most 2^2 = 4 times the row's size
 constexpr std::uint64_t kRowSizePoints = std::uint64_t{1} << 21;
 
