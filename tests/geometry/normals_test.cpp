@@ -6,12 +6,14 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "geometry/normals_steps.hpp"
 #include "sspc/neighbours.hpp"
 #include "sspc/synthetic.hpp"
 
@@ -269,6 +271,38 @@ TEST(Normals, ResultIsBitIdenticalOnOneAndTwoThreads) {
   ASSERT_EQ(one.size(), cloud.size());
   EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(Vec3f)), 0);
   EXPECT_EQ(std::memcmp(one.data(), four.data(), one.size() * sizeof(Vec3f)), 0);
+}
+
+// The orientation's graph: its reverse half holds, for each point j, every i whose row names j
+// where j's row does not name i, each once. Checked against reading the rows on a cloud of exact
+// ties (a lattice, every point with four neighbours at one distance), doubled points (the row
+// of a point with duplicates ends at distance 0) and points in general position, and on a
+// cloud smaller than k + 1 (short rows).
+TEST(Normals, ReverseEdgesAreTheRowsThatDoNotNameTheirSource) {
+  for (const std::size_t lattice : {std::size_t{40}, std::size_t{2}}) {
+    std::vector<Vec3f> points;
+    for (std::size_t y = 0; y < lattice; ++y) {
+      for (std::size_t x = 0; x < lattice; ++x) points.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.0f);
+    }
+    for (std::size_t i = 0; i < points.size(); i += 7) points.push_back(points[i]);
+    const PointCloud bumps = synthetic::bumps(lattice * lattice, 40.0, 3, 1.0, {.seed = 3, .normals = false});
+    points.insert(points.end(), bumps.positions.begin(), bumps.positions.end());
+    const KnnTable table = KdTree3(points).knn_batch(points, 16, false, nullptr, false);
+    const detail::ReverseEdges reverse = detail::reverse_edges(points, table, points.size());
+    for (std::size_t j = 0; j < points.size(); ++j) {
+      std::vector<std::uint32_t> expected;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const auto row = table.row(i);
+        if (std::find(row.begin(), row.end(), j) == row.end()) continue;
+        const auto back = table.row(j);
+        if (std::find(back.begin(), back.end(), i) == back.end()) expected.push_back(static_cast<std::uint32_t>(i));
+      }
+      const auto got_span = reverse.of(j);
+      std::vector<std::uint32_t> got(got_span.begin(), got_span.end());
+      std::sort(got.begin(), got.end());
+      ASSERT_EQ(got, expected) << "point " << j << " of " << points.size();
+    }
+  }
 }
 
 }  // namespace
