@@ -25,7 +25,7 @@ class PrimHeap {
  public:
   static constexpr std::uint32_t kUnseen = std::numeric_limits<std::uint32_t>::max();
   static constexpr std::uint32_t kDone = kUnseen - 1;
-  static constexpr std::size_t kArity = 8;
+  static constexpr std::uint32_t kArity = 8;
 
   explicit PrimHeap(std::size_t points) : slot_(points, kUnseen) {}
 
@@ -89,7 +89,7 @@ class PrimHeap {
   void sift_down(std::uint32_t i, std::uint64_t k) {
     const std::size_t n = heap_.size();
     for (;;) {
-      const std::size_t first = kArity * i + 1;
+      const std::size_t first = std::size_t{kArity} * i + 1;
       if (first >= n) break;
       const std::size_t end = first + kArity < n ? first + kArity : n;
       std::size_t best = first;
