@@ -76,17 +76,19 @@ void put_planes(std::string& out, const std::vector<std::uint32_t>& v) {
 
 // The order version 2 stores a code word's points in: rows of the tangent plane (y, then x,
 // then height z on the code word's grid), so that consecutive points are neighbours.
+// Sorted as (key, index) pairs, each key the three coordinates packed into 21 bits apiece (grid
+// values are below 2^16): the same order as comparing the coordinates through the indices, with
+// no load through an index in the comparisons.
 std::vector<std::uint32_t> raster_order(const std::vector<std::array<std::uint32_t, 3>>& v) {
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(v.size());
+  for (std::uint32_t i = 0; i < keyed.size(); ++i) {
+    const auto& p = v[i];
+    SSPC_DCHECK(p[0] < (1u << 21) && p[1] < (1u << 21) && p[2] < (1u << 21));
+    keyed[i] = {std::uint64_t{p[1]} << 42 | std::uint64_t{p[0]} << 21 | p[2], i};
+  }
+  std::sort(keyed.begin(), keyed.end());
   std::vector<std::uint32_t> order(v.size());
-  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&v](std::uint32_t a, std::uint32_t b) {
-    const auto& p = v[a];
-    const auto& q = v[b];
-    if (p[1] != q[1]) return p[1] < q[1];
-    if (p[0] != q[0]) return p[0] < q[0];
-    if (p[2] != q[2]) return p[2] < q[2];
-    return a < b;
-  });
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = keyed[i].second;
   return order;
 }
 

@@ -780,6 +780,12 @@ int cheapest_shift(const ColumnModels& models, std::span<const Point> sorted, in
 std::vector<std::uint32_t> column_order(std::span<const Point> points, int shift) {
   std::vector<std::uint32_t> order(points.size());
   for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+  // Points already in the columns' order (the writer's raster order at shift 0, most levels'):
+  // the identity, without a sort.
+  const auto cell = [shift](const Point& p) { return std::pair(p[1] >> shift, p[0] >> shift); };
+  bool ordered = true;
+  for (std::size_t k = 1; k < points.size() && ordered; ++k) ordered = !(cell(points[k]) < cell(points[k - 1]));
+  if (ordered) return order;
   // The index as the last key keeps the points' own order within a cell (std::stable_sort would
   // too, but its buffer comes from a nothrow operator new, which AllocationLimit's replacement
   // of the allocator does not cover).
