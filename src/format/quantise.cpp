@@ -35,14 +35,6 @@ int position_bits_for_step(double patch_radius, double step) {
   return static_cast<int>(std::clamp(bits, double{kMinPositionBits}, double{kMaxPositionBits}));
 }
 
-std::uint32_t quantise_coordinate(float x, float step, int bits) {
-  const double half = static_cast<double>(1u << (bits - 1));
-  double cell = std::floor(static_cast<double>(x) / static_cast<double>(step));
-  if (!std::isfinite(cell)) cell = 0;
-  cell = std::clamp(cell, -half, half - 1);
-  return static_cast<std::uint32_t>(cell + half);
-}
-
 std::array<std::uint32_t, 2> encode_normal(const Vec3f& n, int bits) {
   const float l1 = std::abs(n.x()) + std::abs(n.y()) + std::abs(n.z());
   float u = 0, v = 0;

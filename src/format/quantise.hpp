@@ -4,7 +4,9 @@
 // float wherever it is decoded; the arithmetic order is part of the format.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 #include <Eigen/Core>
@@ -19,7 +21,22 @@ float position_step(float patch_radius, int bits);
 // The fewest bits (within the format's 4..16) whose grid of `step` spans ±patch_radius: what the
 // writer stores when it is given an exact step (QuantOptions::position_step).
 int position_bits_for_step(double patch_radius, double step);
-std::uint32_t quantise_coordinate(float x, float step, int bits);
+// The cell of x on the grid of `step` (cell k holds [k·step, (k + 1)·step)), as an offset-binary
+// value clamped below 2^bits; the middle value 2^(bits−1) where x / step is not finite. Inline,
+// the floor done by truncation: a call into the library (no SSE4.1 in the portable build), it
+// was 1.6% of autzen's encode, three calls a code-word point.
+inline std::uint32_t quantise_coordinate(float x, float step, int bits) {
+  const double half = static_cast<double>(1u << (bits - 1));
+  const double v = static_cast<double>(x) / static_cast<double>(step);
+  if (!std::isfinite(v)) return static_cast<std::uint32_t>(half);
+  // Clamped first, into a range where truncation is exact and the final clamp gives what it
+  // would give for v itself; then floor = truncation, less one below 0 off the integers.
+  const double bounded = std::clamp(v, -half - 1, half + 1);
+  double cell = static_cast<double>(static_cast<std::int64_t>(bounded));
+  if (cell > bounded) cell -= 1;
+  cell = std::clamp(cell, -half, half - 1);
+  return static_cast<std::uint32_t>(cell + half);
+}
 inline float dequantise_coordinate(std::uint32_t v, float step, int bits) {
   const auto half = static_cast<std::int32_t>(1u << (bits - 1));
   return (static_cast<float>(static_cast<std::int32_t>(v) - half) + 0.5f) * step;

@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "container_test_models.hpp"
 #include "geometry/rigid_transform.hpp"
@@ -28,6 +31,36 @@ TEST(QuantiseTest, PositionWithinHalfStep) {
     EXPECT_EQ(quantise_coordinate(10 * radius, step, bits), (1u << bits) - 1);
     EXPECT_EQ(quantise_coordinate(-10 * radius, step, bits), 0u);
   }
+}
+
+// The cell is floor(x / step) clamped, exactly (the writer's files depend on it): on grid
+// points, just off them either side, far outside the range, and where x / step is not finite.
+TEST(QuantiseTest, PositionCellIsTheFloorOfTheQuotient) {
+  const auto reference = [](float x, float step, int bits) {
+    const double half = static_cast<double>(1u << (bits - 1));
+    double cell = std::floor(static_cast<double>(x) / static_cast<double>(step));
+    if (!std::isfinite(cell)) cell = 0;
+    return static_cast<std::uint32_t>(std::clamp(cell, -half, half - 1) + half);
+  };
+  test::TestRng rng(7);
+  for (int bits : {4, 7, 16}) {
+    for (const float step : {0.1f, 0.37f, 1.0f, 3e-6f}) {
+      const float span = step * static_cast<float>(1u << bits);
+      std::vector<float> xs = {0.0f, -0.0f, step, -step, 3 * step, -3 * step, 1e30f, -1e30f, span, -span,
+                               std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                               std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::denorm_min(),
+                               -std::numeric_limits<float>::denorm_min()};
+      for (int k = -40; k <= 40; ++k) {
+        const float on = static_cast<float>(k) * step;
+        xs.insert(xs.end(), {on, std::nextafter(on, -1e30f), std::nextafter(on, 1e30f)});
+      }
+      for (int i = 0; i < 2000; ++i) xs.push_back(rng.range(-span, span));
+      for (const float x : xs) {
+        ASSERT_EQ(quantise_coordinate(x, step, bits), reference(x, step, bits)) << "x " << x << " step " << step;
+      }
+    }
+  }
+  EXPECT_EQ(quantise_coordinate(1.0f, 1e-40f, 8), reference(1.0f, 1e-40f, 8));  // an infinite quotient
 }
 
 TEST(QuantiseTest, NormalsOctahedral10BitsUnderAQuarterDegree) {
