@@ -106,9 +106,20 @@ class ValueModel {
 };
 
 // What coding `bit` with probability p of a 0 costs, in bits (an encoder's estimate).
+// From a table of the same values (−log2 of k / 2^kProbabilityBits: 1 − p / 2^bits is exactly
+// (2^bits − p) / 2^bits): computed each time, the logarithm was 1% of autzen's encode.
 inline double bit_cost(std::uint16_t p, unsigned bit) {
-  const double zero = static_cast<double>(p) / static_cast<double>(1u << kProbabilityBits);
-  return -std::log2(bit == 0 ? zero : 1.0 - zero);
+  constexpr std::uint32_t kOne = 1u << kProbabilityBits;
+  static const std::array<double, kOne + 1> table = [] {
+    std::array<double, kOne + 1> t{};
+    for (std::uint32_t k = 0; k <= kOne; ++k) t[k] = -std::log2(static_cast<double>(k) / static_cast<double>(kOne));
+    return t;
+  }();
+  if (p > kOne) {
+    const double zero = static_cast<double>(p) / static_cast<double>(kOne);
+    return -std::log2(bit == 0 ? zero : 1.0 - zero);
+  }
+  return table[bit == 0 ? p : kOne - p];
 }
 
 inline void RangeEncoder::encode_with(std::uint32_t p, unsigned bit) {
