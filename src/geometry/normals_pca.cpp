@@ -23,11 +23,17 @@ Vec3f pca_normal(std::span<const Vec3f> positions, std::span<const std::uint32_t
   Vec3d centroid = Vec3d::Zero();
   for (const std::uint32_t j : row) centroid += positions[j].cast<double>();
   centroid /= static_cast<double>(row.size());
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  // The lower triangle's six sums, each d_a·d_b added in the neighbours' order: the same values
+  // as Eigen's selfadjointView().rankUpdate(d), whose call a neighbour was a third of the PCA.
+  double xx = 0, yx = 0, zx = 0, yy = 0, zy = 0, zz = 0;
   for (const std::uint32_t j : row) {
     const Vec3d d = positions[j].cast<double>() - centroid;
-    covariance.selfadjointView<Eigen::Lower>().rankUpdate(d);
+    xx += d.x() * d.x(), yx += d.x() * d.y(), zx += d.x() * d.z();
+    yy += d.y() * d.y(), zy += d.y() * d.z(), zz += d.z() * d.z();
   }
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  covariance(0, 0) = xx, covariance(1, 0) = yx, covariance(2, 0) = zx;
+  covariance(1, 1) = yy, covariance(2, 1) = zy, covariance(2, 2) = zz;
   // Only the lower triangle is read by the solver; no need to mirror it or divide by n.
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance, Eigen::ComputeEigenvectors);
