@@ -21,6 +21,7 @@
 // (canonical) k-NN table.
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -54,22 +55,26 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 // against one position and one distance.
 ReverseEdges reverse_edges(std::span<const Vec3f> positions, const KnnTable& table, std::size_t points) {
   constexpr float kMargin = 1e-5f;
-  // Per point, the squared distance to its row's last point; −1 where the row is short.
-  std::vector<float> last(points, -1.0f);
+  // One array serves twice, so that the orientation's peak is what it was before the distances
+  // (autzen's encode: 1.51 GB with an array of its own, 1.47 without): first each point's
+  // squared distance to its row's last point (its bits; −1 where the row is short), then each
+  // point's count of one-way edges into it.
+  std::vector<std::uint32_t> degree(points);
   parallel_for(0, points, 4096, [&](std::size_t j) {
     const auto row = table.row(j);
-    if (row.size() == table.k && !row.empty()) last[j] = (positions[row.back()] - positions[j]).squaredNorm();
+    const float last =
+        row.size() == table.k && !row.empty() ? (positions[row.back()] - positions[j]).squaredNorm() : -1.0f;
+    degree[j] = std::bit_cast<std::uint32_t>(last);
   });
   const std::size_t words = (table.k + 31) / 32;
   std::vector<std::uint32_t> one_way(points * words, 0);  // bit e: edge (i, row(i)[e]) has no twin
-  std::vector<std::uint32_t> degree(points, 0);
   parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const auto row = table.row(i);
       const Vec3f& here = positions[i];
       for (std::size_t e = 0; e < row.size(); ++e) {
         const std::uint32_t j = row[e];
-        const float reach = last[j], d = (positions[j] - here).squaredNorm();
+        const float reach = std::bit_cast<float>(degree[j]), d = (positions[j] - here).squaredNorm();
         bool mutual = false;
         if (reach >= 0 && d < reach * (1 - kMargin)) {
           mutual = true;
@@ -77,9 +82,17 @@ ReverseEdges reverse_edges(std::span<const Vec3f> positions, const KnnTable& tab
           // A plain loop without an early exit: the compiler vectorises it.
           for (const std::uint32_t back : table.row(j)) mutual |= back == i;
         }
-        if (mutual) continue;
-        one_way[i * words + e / 32] |= std::uint32_t{1} << (e % 32);
-        std::atomic_ref<std::uint32_t>(degree[j]).fetch_add(1, std::memory_order_relaxed);
+        if (!mutual) one_way[i * words + e / 32] |= std::uint32_t{1} << (e % 32);
+      }
+    }
+  });
+  std::fill(degree.begin(), degree.end(), 0u);
+  parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const auto row = table.row(i);
+      for (std::size_t e = 0; e < row.size(); ++e) {
+        if ((one_way[i * words + e / 32] >> (e % 32) & 1u) == 0) continue;
+        std::atomic_ref<std::uint32_t>(degree[row[e]]).fetch_add(1, std::memory_order_relaxed);
       }
     }
   });
