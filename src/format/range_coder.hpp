@@ -23,6 +23,8 @@
 #include <span>
 #include <string>
 
+#include "core/check.hpp"
+
 namespace sspc::codec {
 
 inline constexpr int kProbabilityBits = 11;
@@ -115,10 +117,7 @@ inline double bit_cost(std::uint16_t p, unsigned bit) {
     for (std::uint32_t k = 0; k <= kOne; ++k) t[k] = -std::log2(static_cast<double>(k) / static_cast<double>(kOne));
     return t;
   }();
-  if (p > kOne) {
-    const double zero = static_cast<double>(p) / static_cast<double>(kOne);
-    return -std::log2(bit == 0 ? zero : 1.0 - zero);
-  }
+  SSPC_DCHECK(p <= kOne);  // models start at half and adapt_probability keeps them below kOne
   return table[bit == 0 ? p : kOne - p];
 }
 

@@ -42,8 +42,9 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 // Counting sort of the table's edges by target, in parallel. The order of sources within a
 // point's list depends on thread timing; Prim's result does not depend on it (see
 // orient_normals_mst), so the orientation stays deterministic. Whether an edge is mutual is
-// looked up once (a byte an edge) and used by both passes: looking it up again in the second
-// pass, row j read for every edge (i, j), was half of this step's time. A row's flags are
+// looked up once (a bit an edge) and used by the two passes that count and place the one-way
+// edges: looking it up again in the placing pass, row j read for every edge (i, j), was half of
+// this step's time. A row's flags are
 // whole words of its own (4 bytes a point at k = 16), so that threads never share one.
 //
 // Whether row j names i is first settled by distance: row j holds the k points nearest to j
@@ -86,15 +87,20 @@ ReverseEdges reverse_edges(std::span<const Vec3f> positions, const KnnTable& tab
       }
     }
   });
-  std::fill(degree.begin(), degree.end(), 0u);
-  parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const auto row = table.row(i);
-      for (std::size_t e = 0; e < row.size(); ++e) {
-        if ((one_way[i * words + e / 32] >> (e % 32) & 1u) == 0) continue;
-        std::atomic_ref<std::uint32_t>(degree[row[e]]).fetch_add(1, std::memory_order_relaxed);
+  // visit(i, j) for every one-way edge, in parallel.
+  const auto for_each_one_way = [&](auto&& visit) {
+    parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const auto row = table.row(i);
+        for (std::size_t e = 0; e < row.size(); ++e) {
+          if ((one_way[i * words + e / 32] >> (e % 32) & 1u) != 0) visit(i, row[e]);
+        }
       }
-    }
+    });
+  };
+  std::fill(degree.begin(), degree.end(), 0u);
+  for_each_one_way([&](std::size_t, std::uint32_t j) {
+    std::atomic_ref<std::uint32_t>(degree[j]).fetch_add(1, std::memory_order_relaxed);
   });
   ReverseEdges reverse;
   reverse.offsets.resize(points + 1);
@@ -102,16 +108,9 @@ ReverseEdges reverse_edges(std::span<const Vec3f> positions, const KnnTable& tab
   for (std::size_t i = 0; i < points; ++i) reverse.offsets[i + 1] = reverse.offsets[i] + degree[i];
   reverse.sources.resize(reverse.offsets[points]);
   std::vector<std::uint64_t> cursor(reverse.offsets.begin(), reverse.offsets.end() - 1);
-  parallel_for_ranges(0, points, 4096, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const auto row = table.row(i);
-      for (std::size_t e = 0; e < row.size(); ++e) {
-        if ((one_way[i * words + e / 32] >> (e % 32) & 1u) == 0) continue;
-        const std::uint64_t at =
-            std::atomic_ref<std::uint64_t>(cursor[row[e]]).fetch_add(1, std::memory_order_relaxed);
-        reverse.sources[at] = static_cast<std::uint32_t>(i);
-      }
-    }
+  for_each_one_way([&](std::size_t i, std::uint32_t j) {
+    const std::uint64_t at = std::atomic_ref<std::uint64_t>(cursor[j]).fetch_add(1, std::memory_order_relaxed);
+    reverse.sources[at] = static_cast<std::uint32_t>(i);
   });
   return reverse;
 }
