@@ -191,46 +191,49 @@ bool MlsSurface::evaluate(const Vec3f& x, const Vec3f& facing, Vec3f& a, Vec3f& 
   // Σ w, Σ w (p − x) and the six entries of Σ w nnᵀ.
   float sw = 0, spx = 0, spy = 0, spz = 0;
   float txx = 0, txy = 0, txz = 0, tyy = 0, tyz = 0, tzz = 0;
-  // Each row's points in runs of kRun: first the squared distances, the indices of those
-  // within r gathered without a branch, then their weights and sums. Branching on d² < r² point
-  // by point, a third or so of the points scanned, mispredicted at random; the sums are taken in
-  // the same order, so they are the same, and so are the images. Warm frames (1024², 2 threads,
-  // three interleaved runs): autzen level 5 with --lod 0.5 0.65-0.75 -> 0.56-0.58 s, dragon_scans
-  // level 5 0.39-0.48 -> 0.34-0.45 s.
+  // The points scanned: first the squared distances, the indices of those within r gathered
+  // without a branch (up to kRun at a time, across rows), then their weights and sums. A branch
+  // point by point on d² < r², true for a third or so of the points scanned, mispredicted at
+  // random; the sums are taken in the same order, so they are the same, and so are the images.
+  // Warm frames (1024², 2 threads, three interleaved runs): autzen level 5 with --lod 0.5
+  // 0.65-0.75 -> 0.53-0.63 s, dragon_scans level 5 0.39-0.48 -> 0.33-0.38 s (gathered row by
+  // row, 0.56-0.60 and 0.34-0.40).
   constexpr std::uint32_t kRun = 64;
   std::uint32_t within[kRun];
   float within_d2[kRun];
+  std::uint32_t m = 0;
+  const auto weigh = [&] {
+    for (std::uint32_t i = 0; i < m; ++i) {
+      const std::uint32_t q = within[i];
+      const float dx = x_[q] - x.x(), dy = y_[q] - x.y(), dz = z_[q] - x.z();
+      // The weight at squared distance d2 < r², interpolated in the table of the lowered
+      // Gaussian. Positions are summed relative to x, which keeps their precision.
+      const float u = within_d2[i] * to_table;
+      const auto k = static_cast<std::size_t>(u);
+      const float w = weight_table_[k] + (u - static_cast<float>(k)) * (weight_table_[k + 1] - weight_table_[k]);
+      sw += w;
+      spx += w * dx, spy += w * dy, spz += w * dz;
+      const float wx = w * nx_[q], wy = w * ny_[q], wz = w * nz_[q];
+      txx += wx * nx_[q], txy += wx * ny_[q], txz += wx * nz_[q];
+      tyy += wy * ny_[q], tyz += wy * nz_[q], tzz += wz * nz_[q];
+    }
+    m = 0;
+  };
   for (int iz = z0; iz <= z1; ++iz) {
     for (int iy = y0; iy <= y1; ++iy) {
       // Cells x0..x1 of one row are one contiguous run of points.
       const std::uint32_t end = start_[cell_index(x1, iy, iz) + 1];
-      for (std::uint32_t j = start_[cell_index(x0, iy, iz)]; j < end;) {
-        const std::uint32_t stop = std::min(end, j + kRun);
-        std::uint32_t m = 0;
-        for (; j < stop; ++j) {
-          const float dx = x_[j] - x.x(), dy = y_[j] - x.y(), dz = z_[j] - x.z();
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          within[m] = j;
-          within_d2[m] = d2;
-          m += d2 < r2 ? 1u : 0u;
-        }
-        for (std::uint32_t i = 0; i < m; ++i) {
-          const std::uint32_t q = within[i];
-          const float dx = x_[q] - x.x(), dy = y_[q] - x.y(), dz = z_[q] - x.z();
-          // The weight at squared distance d2 < r², interpolated in the table of the lowered
-          // Gaussian. Positions are summed relative to x, which keeps their precision.
-          const float u = within_d2[i] * to_table;
-          const auto k = static_cast<std::size_t>(u);
-          const float w = weight_table_[k] + (u - static_cast<float>(k)) * (weight_table_[k + 1] - weight_table_[k]);
-          sw += w;
-          spx += w * dx, spy += w * dy, spz += w * dz;
-          const float wx = w * nx_[q], wy = w * ny_[q], wz = w * nz_[q];
-          txx += wx * nx_[q], txy += wx * ny_[q], txz += wx * nz_[q];
-          tyy += wy * ny_[q], tyz += wy * nz_[q], tzz += wz * nz_[q];
-        }
+      for (std::uint32_t j = start_[cell_index(x0, iy, iz)]; j < end; ++j) {
+        const float dx = x_[j] - x.x(), dy = y_[j] - x.y(), dz = z_[j] - x.z();
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        within[m] = j;
+        within_d2[m] = d2;
+        m += d2 < r2 ? 1u : 0u;
+        if (m == kRun) weigh();
       }
     }
   }
+  weigh();
   if (!(sw > min_support_)) return false;
   a = x + Vec3f(spx, spy, spz) / sw;
   // The tensor's principal axis by power iteration from its largest column: where the normals
