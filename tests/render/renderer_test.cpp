@@ -23,6 +23,7 @@
 #include "sspc/render.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
+#include "sspc/neighbours.hpp"
 #include "sspc/normals.hpp"
 #include "sspc/synthetic.hpp"
 #include "test_util.hpp"
@@ -293,6 +294,34 @@ TEST(BrickScene, DecodeWithinStopsPastItsBound) {
   const auto short_of = render::decode_within(*model, all->size() - 1);
   ASSERT_TRUE(short_of.ok());
   EXPECT_FALSE(short_of->has_value());
+}
+
+// A model too large to decode whole is measured for its spacing without holding its decode, and
+// to the bit as a render of the decode measures it (nominal_spacing of decode_all()), whatever
+// the thread count: the two renders then take the same bandwidth. A margin too small for a
+// sampled point's nearest gives up rather than guess.
+TEST(BrickScene, ExactSpacingIsTheDecodesNominalSpacing) {
+  test::TempDir dir;
+  const auto path = dir.path() / "sphere.sspc";
+  EncodeOptions encode_options;
+  encode_options.patch_points = 256;
+  ASSERT_TRUE(encode(synthetic::sphere(30000, 1.0), path, encode_options).ok());
+  auto model = CompressedModel::open(path);
+  ASSERT_TRUE(model.ok());
+  const auto all = model->decode_all();
+  ASSERT_TRUE(all.ok());
+  ASSERT_GT(model->patch_count(), 50u);
+  const double expected = nominal_spacing(*all);
+  for (const int threads : {1, 2}) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    const auto spacing = render::exact_decoded_spacing(*model, 16 * model->info().spacing);
+    ASSERT_TRUE(spacing.ok()) << spacing.status().to_string();
+    ASSERT_TRUE(spacing->has_value());
+    EXPECT_EQ(**spacing, expected);
+  }
+  const auto too_near = render::exact_decoded_spacing(*model, 0.01f * static_cast<float>(expected));
+  ASSERT_TRUE(too_near.ok());
+  EXPECT_FALSE(too_near->has_value());
 }
 
 // A header that understates its points (10 where the model holds 4,000) still renders, the
