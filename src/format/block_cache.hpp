@@ -27,8 +27,12 @@ class BlockCache {
  public:
   explicit BlockCache(std::uint64_t budget_bytes) { set_budget(budget_bytes); }
 
-  // Evicts down to the new budget. Each shard keeps its most recent block whatever the budget,
-  // so a query never decodes the block it has just decoded again.
+  // Evicts down to the new budget. A shard keeps its most recent block beyond its share of the
+  // budget while the whole cache is within it, so that a block larger than a share is not
+  // decoded again by the next query; past the budget, other shards give up theirs (trim), and
+  // the cache holds at most the budget and the block just decoded. (Each shard keeping one
+  // block whatever the budget held 16 of autzen's code-word blocks of 16,384-point patches,
+  // about 8 MB each, under a renderer's 64 MiB.)
   void set_budget(std::uint64_t bytes) {
     budget_.store(bytes, std::memory_order_relaxed);
     per_shard_.store(bytes / kShards, std::memory_order_relaxed);
@@ -36,6 +40,7 @@ class BlockCache {
       std::lock_guard<std::mutex> lock(s.mutex);
       evict(s);
     }
+    trim(kShards);
   }
   std::uint64_t budget() const { return budget_.load(std::memory_order_relaxed); }
   // What the cache holds now, and the most it has held since the last reset_peak().
@@ -54,14 +59,19 @@ class BlockCache {
 
   // `bytes`: what the value holds (its vectors' capacities).
   void insert(std::size_t id, std::shared_ptr<const T> value, std::uint64_t bytes) {
-    Shard& s = shards_[id % kShards];
-    std::lock_guard<std::mutex> lock(s.mutex);
-    if (s.map.count(id) != 0) return;  // another thread decoded it first
-    s.order.push_front(id);
-    s.map.emplace(id, Entry{std::move(value), s.order.begin(), bytes});
-    s.bytes += bytes;
-    add(static_cast<std::int64_t>(bytes));
-    evict(s);
+    const std::size_t shard = id % kShards;
+    {
+      Shard& s = shards_[shard];
+      std::lock_guard<std::mutex> lock(s.mutex);
+      if (s.map.count(id) != 0) return;  // another thread decoded it first
+      s.order.push_front(id);
+      s.map.emplace(id, Entry{std::move(value), s.order.begin(), bytes});
+      s.bytes += bytes;
+      add(static_cast<std::int64_t>(bytes));
+      evict(s);
+    }
+    // With the shard's lock released: a thread never holds two shards' locks.
+    if (this->bytes() > budget()) trim(shard);
   }
 
   void clear() {
@@ -96,6 +106,22 @@ class BlockCache {
       add(-static_cast<std::int64_t>(victim->second.bytes));
       s.map.erase(victim);
       s.order.pop_back();
+    }
+  }
+  // Evicts the other shards' blocks than shard `keep`'s (none, for kShards), least recently
+  // used first in each, one shard's lock at a time, until the cache is within its budget.
+  void trim(std::size_t keep) {
+    for (std::size_t i = 0; i < kShards && bytes() > budget(); ++i) {
+      if (i == keep) continue;
+      Shard& o = shards_[i];
+      std::lock_guard<std::mutex> lock(o.mutex);
+      while (!o.order.empty() && bytes() > budget()) {
+        auto victim = o.map.find(o.order.back());
+        o.bytes -= victim->second.bytes;
+        add(-static_cast<std::int64_t>(victim->second.bytes));
+        o.map.erase(victim);
+        o.order.pop_back();
+      }
     }
   }
   void add(std::int64_t delta) {

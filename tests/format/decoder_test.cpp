@@ -10,6 +10,7 @@
 
 #include "container_test_models.hpp"
 #include "encoder/container_writer.hpp"
+#include "format/block_cache.hpp"
 #include "sspc/compressed_model.hpp"
 
 namespace sspc::codec {
@@ -342,6 +343,27 @@ TEST(DecoderTest, BlockCacheKeepsWithinItsBudget) {
     EXPECT_LT(f.compressed.cache_bytes(), full);
   }
   EXPECT_EQ(f.compressed.cache_budget(), 0u);
+}
+
+// However large its blocks against its budget, the cache holds at most the budget and the block
+// just inserted: its shards give up even their most recent blocks past the budget (each
+// keeping one whatever the budget, 16 shards held 16 blocks), and keep them while within it.
+TEST(DecoderTest, BlockCacheHoldsItsBudgetAndOneBlock) {
+  BlockCache<int> cache(250);
+  for (std::size_t id = 0; id < 64; ++id) {
+    cache.insert(id, std::make_shared<const int>(static_cast<int>(id)), 100);
+    EXPECT_LE(cache.bytes(), 350u) << "after block " << id;
+    ASSERT_NE(cache.find(id), nullptr);  // the block just inserted stays
+  }
+  EXPECT_LE(cache.peak_bytes(), 350u);
+  cache.set_budget(0);
+  EXPECT_EQ(cache.bytes(), 0u);
+  // Within the budget, a shard keeps a block larger than its sixteenth.
+  BlockCache<int> roomy(1000);
+  roomy.insert(3, std::make_shared<const int>(3), 400);
+  roomy.insert(4, std::make_shared<const int>(4), 400);
+  EXPECT_EQ(roomy.bytes(), 800u);
+  EXPECT_NE(roomy.find(3), nullptr);
 }
 
 }  // namespace
