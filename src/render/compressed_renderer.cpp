@@ -304,9 +304,11 @@ struct CellHash {
   }
 };
 
-StatusOr<std::optional<DecodedSampling>> exact_sampling(const CompressedModel& model, float margin) {
+// Decodes every patch of the model in parallel and hands each to visit(k, points); the first
+// failure, in patch order, once all are done.
+template <typename Visit>
+Status for_each_decoded_patch(const CompressedModel& model, Visit&& visit) {
   const std::size_t patches = model.patch_count();
-  std::vector<std::uint64_t> first(patches + 1, 0);  // where each patch's points begin in the decode
   std::vector<Status> failed(patches);
   parallel_for(0, patches, 1, [&](std::size_t k) {
     auto part = model.decode_patch(k);
@@ -314,9 +316,17 @@ StatusOr<std::optional<DecodedSampling>> exact_sampling(const CompressedModel& m
       failed[k] = part.status();
       return;
     }
-    first[k + 1] = part->size();
+    visit(k, *part);
   });
   for (const Status& status : failed) SSPC_RETURN_IF_ERROR(status);
+  return Status();
+}
+
+StatusOr<std::optional<DecodedSampling>> exact_sampling(const CompressedModel& model, float margin) {
+  const std::size_t patches = model.patch_count();
+  std::vector<std::uint64_t> first(patches + 1, 0);  // where each patch's points begin in the decode
+  SSPC_RETURN_IF_ERROR(
+      for_each_decoded_patch(model, [&](std::size_t k, const PointCloud& part) { first[k + 1] = part.size(); }));
   for (std::size_t k = 0; k < patches; ++k) first[k + 1] += first[k];
   const std::uint64_t n = first[patches];
   if (n < 2) return std::optional(sampling_from(static_cast<double>(model.info().spacing), {}));
@@ -379,14 +389,8 @@ StatusOr<std::optional<DecodedSampling>> exact_sampling(const CompressedModel& m
     std::atomic<float> bound{std::numeric_limits<float>::infinity()};
   };
   std::vector<Best> best(count);
-  std::vector<Status> scanned(patches);
-  parallel_for(0, patches, 1, [&](std::size_t k) {
-    auto part = model.decode_patch(k);
-    if (!part.ok()) {
-      scanned[k] = part.status();
-      return;
-    }
-    for (const Vec3f& p : part->positions) {
+  SSPC_RETURN_IF_ERROR(for_each_decoded_patch(model, [&](std::size_t, const PointCloud& part) {
+    for (const Vec3f& p : part.positions) {
       const auto found = cells.find(cell_of(p));
       if (found == cells.end()) continue;
       for (const std::uint32_t s : found->second) {
@@ -409,8 +413,7 @@ StatusOr<std::optional<DecodedSampling>> exact_sampling(const CompressedModel& m
           if (b.size == kNormalNeighbours) b.bound.store(b.d2[kNormalNeighbours - 1], std::memory_order_relaxed);
       }
     }
-  });
-  for (const Status& st : scanned) SSPC_RETURN_IF_ERROR(st);
+  }));
   std::vector<float> nearest(count, 0.0f), reach;
   for (std::uint64_t s = 0; s < count; ++s) {
     const Best& b = best[s];
