@@ -100,13 +100,15 @@ class BlockCache {
   // The least recently used of the shard (its lock held) until within its part of the budget.
   void evict(Shard& s) {
     const std::uint64_t limit = per_shard_.load(std::memory_order_relaxed);
-    while (s.bytes > limit && s.order.size() > 1) {
-      auto victim = s.map.find(s.order.back());
-      s.bytes -= victim->second.bytes;
-      add(-static_cast<std::int64_t>(victim->second.bytes));
-      s.map.erase(victim);
-      s.order.pop_back();
-    }
+    while (s.bytes > limit && s.order.size() > 1) drop_oldest(s);
+  }
+  // Removes the shard's least recently used block (its lock held; the shard not empty).
+  void drop_oldest(Shard& s) {
+    auto victim = s.map.find(s.order.back());
+    s.bytes -= victim->second.bytes;
+    add(-static_cast<std::int64_t>(victim->second.bytes));
+    s.map.erase(victim);
+    s.order.pop_back();
   }
   // Evicts the other shards' blocks than shard `keep`'s (none, for kShards), least recently
   // used first in each, one shard's lock at a time, until the cache is within its budget.
@@ -115,13 +117,7 @@ class BlockCache {
       if (i == keep) continue;
       Shard& o = shards_[i];
       std::lock_guard<std::mutex> lock(o.mutex);
-      while (!o.order.empty() && bytes() > budget()) {
-        auto victim = o.map.find(o.order.back());
-        o.bytes -= victim->second.bytes;
-        add(-static_cast<std::int64_t>(victim->second.bytes));
-        o.map.erase(victim);
-        o.order.pop_back();
-      }
+      while (!o.order.empty() && bytes() > budget()) drop_oldest(o);
     }
   }
   void add(std::int64_t delta) {
