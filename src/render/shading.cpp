@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "sspc/neighbours.hpp"
 
@@ -128,50 +129,46 @@ StatusOr<UnitRay> UnitRay::make(const Vec3f& origin, const Vec3f& direction, flo
   return ray;
 }
 
-Frame::Frame(int width, int height)
-    : width_(width),
-      height_(height),
-      depth_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), std::numeric_limits<float>::infinity()),
-      normal_(depth_.size(), Vec3f::Zero()),
-      id_(depth_.size(), 0) {}
-
-void Frame::set(int x, int y, float t, const Vec3f& normal, std::uint32_t id) {
-  const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x);
-  depth_[i] = t;
-  normal_[i] = normal;
-  id_[i] = id;
+Frame::Frame(int width, int height, Shade mode, const PinholeCamera& camera) : mode_(mode), camera_(camera) {
+  image_.width = width;
+  image_.height = height;
+  image_.depth.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height),
+                      std::numeric_limits<float>::infinity());
+  image_.rgb.assign(image_.depth.size() * 3, 0);
 }
 
-Image Frame::shade(Shade mode, const PinholeCamera& camera) const {
-  Image image;
-  image.width = width_;
-  image.height = height_;
-  image.depth = depth_;
-  image.rgb.assign(depth_.size() * 3, 0);
-  float near = std::numeric_limits<float>::infinity(), far = 0;
-  for (float t : depth_) {
-    if (std::isfinite(t)) {
-      near = std::min(near, t);
-      far = std::max(far, t);
+void Frame::set(int x, int y, float t, const Vec3f& n, std::uint32_t id) {
+  const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(image_.width) + static_cast<std::size_t>(x);
+  image_.depth[i] = t;
+  if (mode_ == Shade::kDepth) return;  // finish() shades it
+  // A headlight: the light at the eye, so every visible surface is lit.
+  const float lambert = 0.15f + 0.85f * std::abs(n.dot(camera_.direction(x, y)));
+  Vec3f c = Vec3f::Zero();
+  switch (mode_) {
+    case Shade::kLambert: c = Vec3f::Constant(lambert); break;
+    case Shade::kNormal: c = 0.5f * (n + Vec3f::Ones()); break;
+    case Shade::kCodeword: c = lambert * id_colour(id); break;
+    case Shade::kDepth: break;
+  }
+  for (int a = 0; a < 3; ++a) image_.rgb[3 * i + static_cast<std::size_t>(a)] = to_byte(c[a]);
+}
+
+Image Frame::finish() && {
+  if (mode_ == Shade::kDepth) {
+    float near = std::numeric_limits<float>::infinity(), far = 0;
+    for (float t : image_.depth) {
+      if (std::isfinite(t)) {
+        near = std::min(near, t);
+        far = std::max(far, t);
+      }
+    }
+    for (std::size_t i = 0; i < image_.depth.size(); ++i) {
+      if (!std::isfinite(image_.depth[i])) continue;
+      const float c = 1.0f - 0.8f * (far > near ? (image_.depth[i] - near) / (far - near) : 0.0f);
+      for (std::size_t a = 0; a < 3; ++a) image_.rgb[3 * i + a] = to_byte(c);
     }
   }
-  for (std::size_t i = 0; i < depth_.size(); ++i) {
-    if (!std::isfinite(depth_[i])) continue;
-    const Vec3f& n = normal_[i];
-    const int x = static_cast<int>(i % static_cast<std::size_t>(width_));
-    const int y = static_cast<int>(i / static_cast<std::size_t>(width_));
-    // A headlight: the light at the eye, so every visible surface is lit.
-    const float lambert = 0.15f + 0.85f * std::abs(n.dot(camera.direction(x, y)));
-    Vec3f c = Vec3f::Zero();
-    switch (mode) {
-      case Shade::kLambert: c = Vec3f::Constant(lambert); break;
-      case Shade::kNormal: c = 0.5f * (n + Vec3f::Ones()); break;
-      case Shade::kDepth: c = Vec3f::Constant(1.0f - 0.8f * (far > near ? (depth_[i] - near) / (far - near) : 0.0f)); break;
-      case Shade::kCodeword: c = lambert * id_colour(id_[i]); break;
-    }
-    for (int a = 0; a < 3; ++a) image.rgb[3 * i + static_cast<std::size_t>(a)] = to_byte(c[a]);
-  }
-  return image;
+  return std::move(image_);
 }
 
 }  // namespace sspc::render

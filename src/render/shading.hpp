@@ -46,21 +46,25 @@ struct UnitRay {
   static StatusOr<UnitRay> make(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max);
 };
 
+// A frame being traced: the image itself, each hit shaded as it is set (the headlight's Lambert
+// term, the normal or the code word's colour need only the pixel), depth shading once the
+// frame's nearest and farthest hits are known (finish). 7 bytes a pixel (the colour and the
+// depth); it held each hit's depth, normal and code word apart from the image before, 27 bytes
+// a pixel, 28 MB of the 91 MB autzen's level-0 model grew by under a 64 MiB budget at 1024²
+// (docs/RESULTS.md, "Renderer: speed and memory"). The same bytes as shading afterwards: the same
+// expressions on the same floats.
 class Frame {
  public:
-  Frame(int width, int height);
+  Frame(int width, int height, Shade mode, const PinholeCamera& camera);
   // Each pixel is written by one task: no synchronisation needed.
   void set(int x, int y, float t, const Vec3f& normal, std::uint32_t id);
-  Image shade(Shade mode, const PinholeCamera& camera) const;
-  std::size_t memory_bytes() const {
-    return depth_.size() * sizeof(float) + normal_.size() * sizeof(Vec3f) + id_.size() * sizeof(std::uint32_t);
-  }
+  Image finish() &&;
+  std::size_t memory_bytes() const { return image_.rgb.size() + image_.depth.size() * sizeof(float); }
 
  private:
-  int width_, height_;
-  std::vector<float> depth_;
-  std::vector<Vec3f> normal_;
-  std::vector<std::uint32_t> id_;
+  Shade mode_;
+  const PinholeCamera& camera_;
+  Image image_;
 };
 
 // The tiles of a width × height image, kTile pixels a side (the last row and column of tiles
@@ -83,7 +87,7 @@ std::vector<std::pair<int, int>> hilbert_tiles(int width, int height);
 template <typename MakeTrace>
 Image trace_image(const FrameOptions& o, const PinholeCamera& camera, MakeTrace&& make_trace, RenderStats* stats) {
   const auto start = std::chrono::steady_clock::now();
-  Frame frame(o.width, o.height);
+  Frame frame(o.width, o.height, o.shade, camera);
   std::atomic<std::uint64_t> hits{0}, evaluations{0};
   const std::vector<std::pair<int, int>> tiles = hilbert_tiles(o.width, o.height);
   progress_begin(o.progress, "render", tiles.size(), "tiles");
@@ -104,11 +108,12 @@ Image trace_image(const FrameOptions& o, const PinholeCamera& camera, MakeTrace&
     progress_advance(o.progress, end - begin);
   });
   progress_end(o.progress);
-  Image image = frame.shade(o.shade, camera);
+  const std::size_t frame_bytes = frame.memory_bytes();
+  Image image = std::move(frame).finish();
   if (stats != nullptr) {
     stats->render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     stats->rays = static_cast<std::uint64_t>(o.width) * static_cast<std::uint64_t>(o.height);
-    stats->frame_bytes = frame.memory_bytes() + image.rgb.size() + image.depth.size() * sizeof(float);
+    stats->frame_bytes = frame_bytes;
     stats->hits = hits;
     stats->evaluations = evaluations;
   }
