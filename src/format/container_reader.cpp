@@ -448,6 +448,13 @@ Status ContainerReader::load_block(SectionKind kind, std::size_t block, const Bl
   return Status();
 }
 
+std::pair<std::size_t, std::size_t> ContainerReader::block_bytes(SectionKind kind, std::size_t block) const {
+  const std::vector<BlockEntry>& entries = kind == SectionKind::kCodebookBlocks ? codebook_blocks_ : patch_blocks_;
+  if (block >= entries.size()) return {0, 0};
+  const std::size_t begin = header_.sections[static_cast<std::size_t>(kind) - 1].offset + entries[block].offset;
+  return {begin, begin + entries[block].stored_size};
+}
+
 Status ContainerReader::read_codewords(std::size_t block, DecodedCodewords& out) const {
   if (block >= codebook_blocks_.size()) return invalid_argument("code-book block out of range");
   out.surfaces.clear();  // they point into the points the decode replaces

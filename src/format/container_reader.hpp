@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <span>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,10 @@ class ContainerReader {
 
   Status read_codewords(std::size_t block, DecodedCodewords& out) const;
   Status read_patches(std::size_t block, DecodedPatches& out) const;
+
+  // Where a code-book or patch block's stored bytes lie in the file: [first, second). A reader
+  // of a mapped file hands them back to the kernel once decoded (CompressedModel's block source).
+  std::pair<std::size_t, std::size_t> block_bytes(SectionKind kind, std::size_t block) const;
 
   // CRC32 of a whole block section (open() checks only the seek tables'); for verify().
   Status check_section_crc(SectionKind kind) const;

@@ -15,6 +15,7 @@
 #include "encoder/container_writer.hpp"
 #include "format/checksum.hpp"
 #include "format/container_format.hpp"
+#include "format/container_reader.hpp"
 #include "format/quantise.hpp"
 #include "geometry/rigid_transform.hpp"
 #include "sspc/compressed_model.hpp"
@@ -328,6 +329,47 @@ TEST(ContainerTest, EveryFlippedByteIsCaughtOrHarmless) {
     EXPECT_TRUE(same_cloud(*decoded, *expected)) << "byte " << i << " changed the decode silently";
   }
   EXPECT_EQ(refused, static_cast<int>(bytes.size()));  // CRCs cover every byte
+}
+
+// block_bytes names exactly each block's stored bytes (what a mapped model hands back to the
+// kernel once the block is decoded): the ranges lie in the file, in order, without overlap, and
+// a byte flipped at either end of one breaks that block's read and no other's.
+TEST(ContainerTest, BlockBytesAreEachBlocksStoredBytes) {
+  const std::string bytes = encode_or_die(test::make_plane_model(small_shape()), small_blocks());
+  const auto view = std::as_bytes(std::span<const char>(bytes.data(), bytes.size()));
+  auto reader = ContainerReader::open(view, "<memory>");
+  ASSERT_TRUE(reader.ok()) << reader.status().to_string();
+  for (SectionKind kind : {SectionKind::kCodebookBlocks, SectionKind::kPatchBlocks}) {
+    const std::size_t blocks = kind == SectionKind::kCodebookBlocks ? reader->codebook_blocks().size()
+                                                                     : reader->patch_blocks().size();
+    ASSERT_GE(blocks, 2u);
+    auto read = [kind](const ContainerReader& r, std::size_t b) {
+      if (kind == SectionKind::kCodebookBlocks) {
+        DecodedCodewords out;
+        return r.read_codewords(b, out);
+      }
+      DecodedPatches out;
+      return r.read_patches(b, out);
+    };
+    std::size_t previous_end = 0;
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const auto [begin, end] = reader->block_bytes(kind, b);
+      ASSERT_LT(begin, end);
+      ASSERT_LE(end, bytes.size());
+      EXPECT_GE(begin, previous_end);
+      previous_end = end;
+      for (std::size_t at : {begin, end - 1}) {
+        std::string flipped = bytes;
+        flipped[at] = static_cast<char>(flipped[at] ^ 0x01);
+        auto r = ContainerReader::open(std::as_bytes(std::span<const char>(flipped.data(), flipped.size())), "<memory>");
+        ASSERT_TRUE(r.ok());
+        for (std::size_t other = 0; other < blocks; ++other) {
+          EXPECT_EQ(read(*r, other).ok(), other != b) << section_name(kind) << " block " << b << ", byte " << at;
+        }
+      }
+    }
+    EXPECT_EQ(reader->block_bytes(kind, blocks), (std::pair<std::size_t, std::size_t>{0, 0}));
+  }
 }
 
 // A block whose bytes are corrupted but whose CRC was recomputed (a hostile file) must still
