@@ -284,10 +284,9 @@ StatusOr<std::optional<RayHit>> BrickScene::trace(Fields& fields, std::span<cons
     if (begin > end) continue;
     if (fields[level] == nullptr) fields[level] = std::make_unique<Field>(*this, static_cast<int>(level));
     const Field& field = *fields[level];
-    const auto hit = march_ray(field, eye, d, begin, end);
+    const auto hit = march_ray(field, eye, d, begin, end, &evaluations);
     SSPC_RETURN_IF_ERROR(field.status());
     if (hit) {
-      evaluations += static_cast<std::uint64_t>(hit->evaluations);
       return std::optional<RayHit>(RayHit{hit->t, hit->normal, want_id ? field.nearest_id(eye + hit->t * d) : 0});
     }
     if (end >= t1) break;

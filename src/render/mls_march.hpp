@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 
@@ -92,10 +93,20 @@ inline float exit_from_box(const Vec3f& lo, const Vec3f& hi, const Vec3f& o, con
 //   float skip_until(o, d, t, t_max)         a t' ≥ t up to which the surface stays undefined
 //                                            along the ray (a lower bound; t when unknown);
 //   float bandwidth(), support_radius().
+// `evaluations`, when given, gets the evaluations of f made, the ray hit or not (a hit's own
+// count is also in SurfaceHit::evaluations).
 template <typename Field>
-std::optional<SurfaceHit> march_ray(const Field& field, const Vec3f& o, const Vec3f& d, float t_min, float t_max) {
+std::optional<SurfaceHit> march_ray(const Field& field, const Vec3f& o, const Vec3f& d, float t_min, float t_max,
+                                    std::uint64_t* evaluations = nullptr) {
   const float h = field.bandwidth();
   SurfaceHit hit;
+  struct Count {  // adds the ray's evaluations to *evaluations however the march returns
+    const SurfaceHit& hit;
+    std::uint64_t* to;
+    ~Count() {
+      if (to != nullptr) *to += static_cast<std::uint64_t>(hit.evaluations);
+    }
+  } count{hit, evaluations};
   Vec3f a, n;
   float support = 0;
   // n(x) is turned the way of `facing`: the normal of the last sample, so that n keeps its sign

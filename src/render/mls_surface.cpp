@@ -297,8 +297,8 @@ std::uint32_t MlsSurface::nearest_id(const Vec3f& x) const {
   return id;
 }
 
-std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, float t_min,
-                                                float t_max) const {
+std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max,
+                                                std::uint64_t* evaluations) const {
   if (size_ == 0) return std::nullopt;
   // Clip to the grid: beyond it no point is within reach.
   for (int k = 0; k < 3; ++k) {
@@ -314,7 +314,7 @@ std::optional<SurfaceHit> MlsSurface::intersect(const Vec3f& o, const Vec3f& d, 
     t_max = std::min(t_max, far);
   }
   if (!(t_min <= t_max)) return std::nullopt;
-  return march_ray(*this, o, d, t_min, t_max);
+  return march_ray(*this, o, d, t_min, t_max, evaluations);
 }
 
 }  // namespace sspc::render

@@ -60,8 +60,10 @@ class MlsSurface {
   // where level 0's does instead of that much farther from the points.
   void end_within(float reach);
 
-  // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any.
-  std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max) const;
+  // The first intersection with o + t·d (|d| = 1) for t in [t_min, t_max], if any; adds the MLS
+  // evaluations made, hit or miss, to *evaluations when given.
+  std::optional<SurfaceHit> intersect(const Vec3f& o, const Vec3f& d, float t_min, float t_max,
+                                      std::uint64_t* evaluations = nullptr) const;
 
   // For march_ray (render/mls_march.hpp): where o + t·d lies in a cell near no point, a t just
   // past the ray's exit from that cell, else t; and how far along the ray the surface stays

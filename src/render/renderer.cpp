@@ -44,9 +44,8 @@ class PointCloudScene final : public RenderScene {
         [&] {
           return [&](int x, int y, render::Frame& frame, std::uint64_t& evaluations) {
             const auto hit = surface_.intersect(camera.eye(), camera.direction(x, y), 0,
-                                                std::numeric_limits<float>::infinity());
+                                                std::numeric_limits<float>::infinity(), &evaluations);
             if (!hit) return false;
-            evaluations += static_cast<std::uint64_t>(hit->evaluations);
             frame.set(x, y, hit->t, hit->normal, 0);
             return true;
           };

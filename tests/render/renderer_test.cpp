@@ -167,6 +167,27 @@ TEST(MlsSurface, AVanishingBandwidthStillEnds) {
   }
 }
 
+// A ray's MLS evaluations are counted whether it hits or not (RenderStats::evaluations is over
+// all rays): one that runs along a plane within its support, never crossing it, evaluates f
+// every half bandwidth and misses; one through the plane hits with its own count.
+TEST(MlsSurface, EvaluationsAreCountedForMissesToo) {
+  std::vector<Vec3f> points, normals;
+  for (int y = 0; y < 40; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      points.emplace_back(0.1f * static_cast<float>(x), 0.1f * static_cast<float>(y), 0.0f);
+      normals.emplace_back(0.0f, 0.0f, 1.0f);
+    }
+  }
+  const render::MlsSurface surface(points, normals, 0.15f);
+  std::uint64_t evaluations = 0;
+  EXPECT_FALSE(surface.intersect(Vec3f(-1, 1.95f, 0.05f), Vec3f(1, 0, 0), 0.0f, 10.0f, &evaluations));
+  EXPECT_GE(evaluations, 40u);  // 3.9 units of plane in steps of at most h/2 = 0.075
+  std::uint64_t hit_evaluations = 0;
+  const auto hit = surface.intersect(Vec3f(1.95f, 1.95f, 1), Vec3f(0, 0, -1), 0.0f, 10.0f, &hit_evaluations);
+  ASSERT_TRUE(hit);
+  EXPECT_EQ(hit_evaluations, static_cast<std::uint64_t>(hit->evaluations));
+}
+
 // The surface does not depend on which way each normal points (the principal axis of the
 // normals' tensor, not their mean): a sphere whose normals are flipped at random renders as the
 // one whose normals all point out. With the mean normal, flips cancel and tear the surface.
