@@ -384,6 +384,19 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
       json["memory_budget_bytes"] = static_cast<std::uint64_t>(o.budget_mib * 1024 * 1024);
       json["within_budget"] = static_cast<double>(bytes) <= o.budget_mib * 1024 * 1024;
     }
+    if (!sequence) {
+      // The camera as rendered, the automatic one included, so that another render (of a
+      // decode, whose bounding box is not its source's) can be given the same one.
+      const auto vec = [](const Vec3f& v) {
+        Json a = Json::array();
+        for (int k = 0; k < 3; ++k) a.push_back(static_cast<double>(v[k]));
+        return a;
+      };
+      json["eye"] = vec(cameras.front().eye);
+      json["target"] = vec(cameras.front().target);
+      json["up"] = vec(cameras.front().up);
+      json["fov_degrees"] = static_cast<double>(cameras.front().fov_degrees);
+    }
     if (comparison) {
       json["compare"] = o.compare;
       json["psnr_hit_db"] = comparison->psnr_hit;
