@@ -285,7 +285,7 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
   if (sequence) progress_begin(progress.get(), "render", cameras.size(), "frames");
   std::string csv =
       "frame,eye_x,eye_y,eye_z,target_x,target_y,target_z,render_seconds,rays,hits,evaluations,rays_per_second,"
-      "bytes_read\n";
+      "bytes_read,pages_read\n";
   for (std::size_t f = 0; f < cameras.size(); ++f) {
     options.camera = cameras[f];
     options.progress = cameras.size() == 1 ? progress.get() : nullptr;
@@ -307,12 +307,12 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
     const double rps = stats.render_seconds > 0 ? static_cast<double>(stats.rays) / stats.render_seconds : 0;
     char row[512];
     const Camera& c = cameras[f];
-    std::snprintf(row, sizeof row, "%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%llu,%llu,%llu,%.6g,%llu\n", f,
+    std::snprintf(row, sizeof row, "%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%llu,%llu,%llu,%.6g,%llu,%llu\n", f,
                   static_cast<double>(c.eye.x()), static_cast<double>(c.eye.y()), static_cast<double>(c.eye.z()),
                   static_cast<double>(c.target.x()), static_cast<double>(c.target.y()), static_cast<double>(c.target.z()),
                   stats.render_seconds, static_cast<unsigned long long>(stats.rays),
                   static_cast<unsigned long long>(stats.hits), static_cast<unsigned long long>(stats.evaluations), rps,
-                  static_cast<unsigned long long>(stats.bytes_read));
+                  static_cast<unsigned long long>(stats.bytes_read), static_cast<unsigned long long>(stats.pages_read));
     csv += row;
     if (sequence) progress_advance(progress.get(), 1);
     frames.push_back(stats);
@@ -409,12 +409,15 @@ int run_render(const RenderCliOptions& o, const GlobalOptions& global) {
       json["times"] = times;
       Json frame_seconds = Json::array();
       Json frame_bytes = Json::array();
+      Json frame_pages = Json::array();
       for (const RenderStats& f : frames) {
         frame_seconds.push_back(f.render_seconds);
         frame_bytes.push_back(f.bytes_read);
+        frame_pages.push_back(f.pages_read);
       }
       json["frame_seconds"] = std::move(frame_seconds);
       json["frame_bytes_read"] = std::move(frame_bytes);
+      json["frame_pages_read"] = std::move(frame_pages);
     }
     print_json(json);
   } else if (!global.quiet && sequence) {
