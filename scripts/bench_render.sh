@@ -19,9 +19,19 @@
 # cover, and what the coarser levels save of the first frame's time and the scene's memory.
 # Writes docs/results/render_lod.csv and its table in docs/RESULTS.md.
 #
+# The paper's Figure 5 (`path`): PATH_FRAMES frames of PATH_SIZE along a camera path circling
+# above PATH_SCAN (scripts/reproduce.sh's path), the uncompressed cloud paged from a file under a
+# budget of a quarter of its in-memory scene (and in memory, without a budget), against the
+# level-PATH_LEVEL model under the same budget (with every point and with `--lod 0.5`) and with
+# its default 512 MiB, and Embree's discs on the same views: each a process over the whole path,
+# the median and first frame, the pages each frame read (a paged cloud's pages from its page
+# file, a compressed model's bricks built), the peak memory. Writes docs/results/render_path.csv
+# and its table in docs/RESULTS.md.
+#
 # Usage: scripts/bench_render.sh [DATA_DIR]     (default ../shared/data)
 #   SCANS="bunny dragon_scans autzen"   SIZE=1024x1024   THREADS=2   LEVELS="0 5 9"   BUDGETS="512 64" (MiB)
-#   DISC_RADIUS=1.5 (point spacings)   PARTS="speed lod"   LODS="0 0.5 1"   LOD_LEVEL=5
+#   DISC_RADIUS=1.5 (point spacings)   PARTS="speed lod path"   LODS="0 0.5 1"   LOD_LEVEL=5
+#   PATH_SCAN=autzen   PATH_FRAMES=30   PATH_SIZE=512x512   PATH_LEVEL=5
 #   WORK=/tmp/sspc_bench_render (encoded models and normals are kept there between runs)
 # Installs what it needs (a release build, Debian's time package, python3).
 set -euo pipefail
@@ -33,7 +43,11 @@ THREADS="${THREADS:-2}"
 LEVELS="${LEVELS:-0 5 9}"
 BUDGETS="${BUDGETS:-512 64}"
 DISC_RADIUS="${DISC_RADIUS:-1.5}"
-PARTS="${PARTS:-speed lod}"
+PARTS="${PARTS:-speed lod path}"
+PATH_SCAN="${PATH_SCAN:-autzen}"
+PATH_FRAMES="${PATH_FRAMES:-30}"
+PATH_SIZE="${PATH_SIZE:-512x512}"
+PATH_LEVEL="${PATH_LEVEL:-5}"
 LODS="${LODS:-0 0.5 1}"
 LOD_LEVEL="${LOD_LEVEL:-5}"
 WORK="${WORK:-/tmp/sspc_bench_render}"
@@ -61,6 +75,7 @@ speed_csv=docs/results/render_bench.csv
 lod_csv=docs/results/render_lod.csv
 if [[ " $PARTS " == *" speed "* ]]; then echo "$columns" > "$speed_csv"; fi
 if [[ " $PARTS " == *" lod "* ]]; then echo "$columns" > "$lod_csv"; fi
+path_csv=docs/results/render_path.csv
 csv="$speed_csv"  # where measure() writes
 
 # One configuration: three renders, each a process of its own (a compressed scene builds its
@@ -187,6 +202,70 @@ print(f"{c[0]},{c[1]},{c[2] + d} {c[0]},{c[1]},{c[2]}")')
   fi
 done
 
+# Figure 5: one process a configuration over the whole path.
+measure_path() {  # label budget-MiB-or-empty input [render options]
+  local label="$1" budget="$2" input="$3"
+  shift 3
+  local budget_args=()
+  [ -n "$budget" ] && budget_args=(--memory-budget "$budget")
+  /usr/bin/time -f "%M" -o "$WORK/rss" "$sspc" --quiet --threads "$THREADS" render "$input" -o "$WORK/path.png" -f \
+    --size "$PATH_SIZE" --camera-path "$WORK/path.txt" --times "$WORK/path_times.csv" --page-dir "$WORK" \
+    ${budget_args[@]+"${budget_args[@]}"} "$@" --json > "$WORK/path.json"
+  python3 - "$PATH_SCAN" "$label" "$budget" "$(tail -1 "$WORK/rss")" "$WORK/path.json" "$WORK/path_times.csv" \
+    >> "$path_csv" <<'EOF'
+import csv, json, statistics, sys
+scan, label, budget, rss, path, times = sys.argv[1:]
+j = json.load(open(path))
+rows = list(csv.DictReader(open(times)))
+seconds = [float(r["render_seconds"]) for r in rows]
+pages = [int(r["pages_read"]) for r in rows]
+read = sum(int(r["bytes_read"]) for r in rows) / 2**20
+print(f'{scan},{label},{budget},{len(rows)},{statistics.median(seconds):.3f},{seconds[0]:.3f},{max(seconds):.3f},'
+      f'{statistics.median(pages):.0f},{read:.0f},{j["scene_bytes"] / 2**20:.0f},{int(rss) / 1024:.0f}')
+EOF
+  tail -1 "$path_csv"
+}
+if [[ " $PARTS " == *" path "* ]] && [ -f "$data/$PATH_SCAN.ply" ]; then
+  echo "scan,model,budget_mib,frames,median_frame_s,first_frame_s,max_frame_s,median_pages,read_mib,scene_mib,peak_rss_mib" > "$path_csv"
+  plain="$WORK/$PATH_SCAN.normals.ply"
+  [ -f "$plain" ] || "$sspc" --quiet normals "$data/$PATH_SCAN.ply" "$plain" --normals auto
+  model="$WORK/$PATH_SCAN.l$PATH_LEVEL.sspc"
+  [ -f "$model" ] || "$sspc" --quiet encode "$data/$PATH_SCAN.ply" "$model" --level "$PATH_LEVEL"
+  # scripts/reproduce.sh's path: circling above the scan at half its span, looking at points a
+  # quarter span from the centre, z up.
+  "$sspc" --quiet info "$data/$PATH_SCAN.ply" --json | python3 -c '
+import json, math, sys
+info, frames = json.load(sys.stdin), int(sys.argv[1])
+lo, hi = info["bbox_min"], info["bbox_max"]
+c = [(a + b) / 2 for a, b in zip(lo, hi)]
+span = max(hi[0] - lo[0], hi[1] - lo[1])
+for f in range(frames):
+    a = 2 * math.pi * f / frames
+    eye = (c[0] + 0.35 * span * math.cos(a), c[1] + 0.35 * span * math.sin(a), hi[2] + 0.3 * span)
+    target = (c[0] + 0.1 * span * math.cos(a + 1), c[1] + 0.1 * span * math.sin(a + 1), c[2])
+    print(*eye, *target, 0, 0, 1, 50)' "$PATH_FRAMES" > "$WORK/path.txt"
+  # The budget: a quarter of what the uncompressed scene holds in memory (one small frame).
+  "$sspc" --quiet --threads "$THREADS" render "$plain" -o "$WORK/full.png" -f --size 64x64 --json > "$WORK/full.json"
+  quarter=$(python3 -c 'import json, sys; print(max(1, round(json.load(open(sys.argv[1]))["scene_bytes"] / 4 / 2**20)))' "$WORK/full.json")
+  measure_path uncompressed-in-memory "" "$plain"
+  measure_path uncompressed-paged "$quarter" "$plain"
+  measure_path "compressed-l$PATH_LEVEL" "$quarter" "$model"
+  measure_path "compressed-l$PATH_LEVEL-lod0.5" "$quarter" "$model" --lod 0.5
+  measure_path "compressed-l$PATH_LEVEL" 512 "$model"
+  if [ -n "$discs" ]; then
+    /usr/bin/time -f "%M" -o "$WORK/rss" "$discs" "$plain" --threads "$THREADS" --size "$PATH_SIZE" --repeat 1 \
+      --radius "$DISC_RADIUS" --camera-path "$WORK/path.txt" > "$WORK/discs.json"
+    python3 - "$PATH_SCAN" "$(tail -1 "$WORK/rss")" "$WORK/discs.json" >> "$path_csv" <<'EOF'
+import json, sys
+scan, rss, path = sys.argv[1:]
+m = json.load(open(path))
+print(f'{scan},embree-discs,,{m["frames"]},{m["render_seconds"] / m["frames"]:.3f},,,,,'
+      f'{m["scene_bytes"] / 2**20:.0f},{int(rss) / 1024:.0f}')
+EOF
+    tail -1 "$path_csv"
+  fi
+fi
+
 echo
 # The tables: RESULTS.md sections from the CSVs.
 table() {  # csv section-id title intro
@@ -234,3 +313,35 @@ $LODS (\`lod0\`: every point; the default 512 MiB budget), and its decode render
 decode rendered with 2 × 2 rays a pixel and box-filtered (a supersampled reference, docs/METRICS.md, \"Images\"): \
 how close each image comes to what its pixels cover."
 fi
+if [[ " $PARTS " == *" path "* ]] && [ -f "$path_csv" ]; then
+  python3 - "$path_csv" docs/RESULTS.md "$(git rev-parse --short HEAD)" "$(nproc)" "$PATH_SIZE" "$THREADS" <<'EOF'
+import csv, datetime, sys
+sys.path.insert(0, "scripts")
+from results_section import replace_section
+path, results, commit, cores, size, threads = sys.argv[1:]
+rows = list(csv.DictReader(open(path)))
+paged = next((float(r["median_frame_s"]) for r in rows if r["model"] == "uncompressed-paged"), None)
+budget = next((r["budget_mib"] for r in rows if r["model"] == "uncompressed-paged"), "")
+lines = [f"Measured {datetime.date.today()} at commit {commit} on {cores} cores by `scripts/bench_render.sh`; "
+         f"raw figures in `{path}`. The paper's Figure 5 on this renderer: {rows[0]['frames'] if rows else 0} frames "
+         f"of {size} on {threads} threads along a camera path circling above {rows[0]['scan'] if rows else ''} "
+         f"(scripts/reproduce.sh's), each configuration one process over the whole path. The uncompressed cloud "
+         f"is paged from a file under {budget} MiB, a quarter of what its scene holds in memory (the file in the "
+         "system's page cache: pages arrive as fast as memory gives them), and rendered in memory; the compressed "
+         "model under the same budget and under its default 512 MiB; Embree's discs on the same views (the whole "
+         "path's time over its frames). Pages: each frame's pages read from the page file (paged) or bricks "
+         "built (compressed), median over the path. × paged: the paged render's median frame over this one's.",
+         "",
+         "| scan | model | budget MiB | median frame s | first frame s | slowest frame s | pages a frame | read MiB | "
+         "scene MiB | peak MiB | × paged |",
+         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+for r in rows:
+    speed = f'{paged / float(r["median_frame_s"]):.2f}' if paged and float(r["median_frame_s"]) > 0 else ""
+    lines.append(f'| {r["scan"]} | {r["model"]} | {r["budget_mib"]} | {r["median_frame_s"]} | {r["first_frame_s"]} | '
+                 f'{r["max_frame_s"]} | {r["median_pages"]} | {r["read_mib"]} | {r["scene_mib"]} | '
+                 f'{r["peak_rss_mib"]} | {speed} |')
+print("\n".join(lines))
+replace_section(results, "render-path", "Renderer: Figure 5, a camera path within a memory budget", lines)
+EOF
+fi
+
