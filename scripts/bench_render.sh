@@ -231,19 +231,7 @@ if [[ " $PARTS " == *" path "* ]] && [ -f "$data/$PATH_SCAN.ply" ]; then
   [ -f "$plain" ] || "$sspc" --quiet normals "$data/$PATH_SCAN.ply" "$plain" --normals auto
   model="$WORK/$PATH_SCAN.l$PATH_LEVEL.sspc"
   [ -f "$model" ] || "$sspc" --quiet encode "$data/$PATH_SCAN.ply" "$model" --level "$PATH_LEVEL"
-  # scripts/reproduce.sh's path: circling above the scan at half its span, looking at points a
-  # quarter span from the centre, z up.
-  "$sspc" --quiet info "$data/$PATH_SCAN.ply" --json | python3 -c '
-import json, math, sys
-info, frames = json.load(sys.stdin), int(sys.argv[1])
-lo, hi = info["bbox_min"], info["bbox_max"]
-c = [(a + b) / 2 for a, b in zip(lo, hi)]
-span = max(hi[0] - lo[0], hi[1] - lo[1])
-for f in range(frames):
-    a = 2 * math.pi * f / frames
-    eye = (c[0] + 0.35 * span * math.cos(a), c[1] + 0.35 * span * math.sin(a), hi[2] + 0.3 * span)
-    target = (c[0] + 0.1 * span * math.cos(a + 1), c[1] + 0.1 * span * math.sin(a + 1), c[2])
-    print(*eye, *target, 0, 0, 1, 50)' "$PATH_FRAMES" > "$WORK/path.txt"
+  "$sspc" --quiet info "$data/$PATH_SCAN.ply" --json | python3 scripts/fig5_path.py "$PATH_FRAMES" > "$WORK/path.txt"
   # The budget: a quarter of what the uncompressed scene holds in memory (one small frame).
   "$sspc" --quiet --threads "$THREADS" render "$plain" -o "$WORK/full.png" -f --size 64x64 --json > "$WORK/full.json"
   quarter=$(python3 -c 'import json, sys; print(max(1, round(json.load(open(sys.argv[1]))["scene_bytes"] / 4 / 2**20)))' "$WORK/full.json")

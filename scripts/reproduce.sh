@@ -97,20 +97,7 @@ done
 if [ -f "$data/$FIG5_SCAN.ply" ] && [ -f "$work/models/$FIG5_SCAN.l5.sspc" ]; then
   stage "Figure 5: $FIG5_SCAN, $FIG5_FRAMES frames, budget $FIG5_BUDGET_MIB MiB"
   "$sspc" --quiet normals "$data/$FIG5_SCAN.ply" "$work/fig5.ply" --normals auto > /dev/null
-  python3 - "$("$sspc" info "$data/$FIG5_SCAN.ply" --json)" "$FIG5_FRAMES" > "$work/path.txt" <<'EOF'
-import json, math, sys
-info, frames = json.loads(sys.argv[1]), int(sys.argv[2])
-lo, hi = info["bbox_min"], info["bbox_max"]
-c = [(a + b) / 2 for a, b in zip(lo, hi)]
-span = max(hi[0] - lo[0], hi[1] - lo[1])
-# Circling above the scan at half its span, looking at points a quarter span from the centre,
-# z up (aerial and terrestrial scans alike).
-for f in range(frames):
-    a = 2 * math.pi * f / frames
-    eye = (c[0] + 0.35 * span * math.cos(a), c[1] + 0.35 * span * math.sin(a), hi[2] + 0.3 * span)
-    target = (c[0] + 0.1 * span * math.cos(a + 1), c[1] + 0.1 * span * math.sin(a + 1), c[2])
-    print(*eye, *target, 0, 0, 1, 50)
-EOF
+  "$sspc" info "$data/$FIG5_SCAN.ply" --json | python3 scripts/fig5_path.py "$FIG5_FRAMES" > "$work/path.txt"
   common=(--quiet --threads 2 render --size "$FIG5_SIZE" --camera-path "$work/path.txt" -f --json)
   "$sspc" "${common[@]}" --memory-budget "$FIG5_BUDGET_MIB" "$work/models/$FIG5_SCAN.l5.sspc" -o "$work/c.png" \
     --times "$results/fig5_compressed.csv" > "$work/c.json"
