@@ -341,6 +341,33 @@ TEST(Cli, RenderWritesAPng) {
   EXPECT_EQ(slurp(one).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
 }
 
+// render --json reports the camera it rendered, the automatic one included: given back as
+// --eye, --target, --up and --fov it renders the same image (how the render of a decode, whose
+// bounding box and so automatic camera differ, is compared with the model's).
+TEST(Cli, RenderReportsTheCameraItUsed) {
+  test::TempDir dir;
+  const std::string model = (dir.path() / "m.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode " + bunny() + " " + model).exit_code, 0);
+  const std::string automatic = (dir.path() / "a.png").string(), given = (dir.path() / "g.png").string();
+  const CliRun run = sspc(dir, "render " + model + " -o " + automatic + " --size 40x32 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json json = nlohmann::json::parse(run.out, nullptr, false);
+  ASSERT_FALSE(json.is_discarded()) << run.out;
+  const auto vec = [&](const char* key) {
+    const auto& v = json.at(key);
+    return v.at(0).dump() + "," + v.at(1).dump() + "," + v.at(2).dump();
+  };
+  const CliRun again = sspc(dir, "render " + model + " -o " + given + " --size 40x32 --eye " + vec("eye") + " --target " +
+                                     vec("target") + " --up " + vec("up") + " --fov " + json.at("fov_degrees").dump());
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(slurp(automatic), slurp(given));
+  // Another camera gives another image: the comparison can fail.
+  const CliRun moved = sspc(dir, "render " + model + " -o " + given + " -f --size 40x32 --eye " + vec("target") +
+                                     " --target " + vec("eye"));
+  ASSERT_EQ(moved.exit_code, 0) << moved.err;
+  EXPECT_NE(slurp(automatic), slurp(given));
+}
+
 // render --camera-path renders one frame per camera line, OUT_0000.png on, and writes each
 // frame's time to a CSV; a malformed line is refused with its line number.
 TEST(Cli, RenderCameraPathWritesFramesAndTimes) {
