@@ -17,6 +17,8 @@
 
 #include <unistd.h>
 
+#include "core/atomic_file.hpp"
+
 namespace sspc::cli {
 
 namespace {
@@ -165,15 +167,11 @@ Status write_output(const std::string& output, const std::string& extension,
   std::error_code ec;
   const std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
   if (ec) return io_error("stdout: no temporary folder: " + ec.message());
-  std::string name = (dir / ("sspc-stdout-XXXXXX" + extension)).string();
-  const int fd = ::mkstemps(name.data(), static_cast<int>(extension.size()));
-  if (fd < 0)
-    return io_error("stdout: cannot create a temporary file in " + dir.string() + ": " +
-                    std::strerror(errno));
-  ::close(fd);
-  Status status = write(name);
-  if (status.ok()) status = copy_to_stdout(name);
-  std::filesystem::remove(name, ec);
+  // Removed when done, and by the signal handlers if the command is interrupted.
+  auto scratch = TemporaryFile::create(dir, "sspc-stdout-", extension);
+  if (!scratch.ok()) return scratch.status().with_context("stdout");
+  Status status = write(scratch->path());
+  if (status.ok()) status = copy_to_stdout(scratch->path());
   return status;
 }
 

@@ -7,6 +7,9 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <fcntl.h>
@@ -51,6 +54,54 @@ void unregister_temporary(int i) {
   if (i < 0) return;
   g_temp_slots[i].live.store(false, std::memory_order_release);
   g_temp_slots[i].taken.store(false, std::memory_order_release);
+}
+
+// `prefix` and six characters that differ from call to call and from process to process.
+std::string random_suffix() {
+  static std::atomic<std::uint64_t> counter{0};
+  struct timespec now {};
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  std::uint64_t x = (static_cast<std::uint64_t>(getpid()) << 40) ^ (counter.fetch_add(1) << 20) ^
+                    static_cast<std::uint64_t>(now.tv_nsec) ^ (static_cast<std::uint64_t>(now.tv_sec) << 32);
+  // splitmix64's finaliser: every input bit reaches every character.
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  x ^= x >> 31;
+  constexpr char kChars[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+  std::string suffix(6, 'X');
+  for (char& c : suffix) {
+    c = kChars[x % 62];
+    x /= 62;
+  }
+  return suffix;
+}
+
+// Creates `prefix` + six random characters + `extension`, a file (its descriptor returned, open for writing)
+// or a folder (0 returned), registered for the signal handler before it exists, so that no
+// moment passes with the file there and unknown to the handler: with mkstemp and then the
+// registration, a signal that arrived while mkstemp's open() was in the kernel ran the handler
+// between the two and the file stayed (an interrupted `sspc normals` left one on a loaded
+// machine). A name already taken is never registered (the handler would remove another's file):
+// another is tried. -1 with errno set on failure.
+int create_registered(const std::string& prefix, bool folder, std::string& name, int& slot,
+                      const std::string& extension = "") {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    name = prefix + random_suffix() + extension;
+    struct stat st {};
+    if (lstat(name.c_str(), &st) == 0) continue;
+    slot = register_temporary(name, folder);
+    const int fd = folder ? mkdir(name.c_str(), 0700) : ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd >= 0) return fd;
+    const int error = errno;
+    unregister_temporary(slot);
+    slot = -1;
+    if (error != EEXIST) {
+      errno = error;
+      return -1;
+    }
+  }
+  errno = EEXIST;
+  return -1;
 }
 
 // Removes every entry of the folder `path` (files only: a StagingDirectory holds no folders),
@@ -117,16 +168,13 @@ Status AtomicFileWriter::open(const std::filesystem::path& target) {
   constexpr std::size_t kSuffix = 12;  // "." and ".tmp-XXXXXX"
   std::string stem = target.filename().string();
   if (stem.size() + kSuffix > NAME_MAX) stem.resize(NAME_MAX - kSuffix);
-  std::string pattern = (dir / ("." + stem + ".tmp-XXXXXX")).string();
-  std::vector<char> name(pattern.begin(), pattern.end());
-  name.push_back('\0');
-  const int fd = mkstemp(name.data());
+  std::string name;
+  const int fd = create_registered((dir / ("." + stem + ".tmp-")).string(), false, name, slot_);
   if (fd < 0) {
     return io_error(target.string() + ": cannot create a temporary file in " + dir.string() +
                     ": " + errno_text());
   }
-  temp_ = name.data();
-  slot_ = register_temporary(temp_);
+  temp_ = name;
   file_ = fdopen(fd, "wb");
   if (file_ == nullptr) {
     close(fd);
@@ -223,19 +271,38 @@ void AtomicFileWriter::abandon() {
   slot_ = -1;
 }
 
+StatusOr<TemporaryFile> TemporaryFile::create(const std::filesystem::path& dir, const std::string& prefix,
+                                               const std::string& extension) {
+  TemporaryFile file;
+  std::string name;
+  const int fd = create_registered((dir / prefix).string(), false, name, file.slot_, extension);
+  if (fd < 0) return io_error(dir.string() + ": cannot create a temporary file: " + errno_text());
+  ::close(fd);
+  file.path_ = name;
+  return file;
+}
+
+TemporaryFile::TemporaryFile(TemporaryFile&& other) noexcept
+    : path_(std::exchange(other.path_, {})), slot_(std::exchange(other.slot_, -1)) {}
+
+TemporaryFile::~TemporaryFile() {
+  if (!path_.empty()) {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  unregister_temporary(slot_);
+}
+
 StagingDirectory::~StagingDirectory() { abandon(); }
 
 Status StagingDirectory::open(const std::filesystem::path& dir) {
   abandon();
   const std::filesystem::path where = dir.empty() ? std::filesystem::path(".") : dir;
-  std::string pattern = (where / ".sspc-staging-XXXXXX").string();
-  std::vector<char> name(pattern.begin(), pattern.end());
-  name.push_back('\0');
-  if (mkdtemp(name.data()) == nullptr) {
+  std::string name;
+  if (create_registered((where / ".sspc-staging-").string(), true, name, slot_) < 0) {
     return io_error(where.string() + ": cannot create a temporary folder: " + errno_text());
   }
-  dir_ = name.data();
-  slot_ = register_temporary(dir_, true);
+  dir_ = name;
   return Status();
 }
 

@@ -53,6 +53,26 @@ class AtomicFileWriter {
   int slot_ = -1;  // in the table of temporary files a signal handler removes
 };
 
+// A scratch file (`prefix`, six random characters, `extension`, in `dir`) that its destructor and
+// the signal handlers of remove_temporary_files_on_signals() remove: what a command writes before
+// it copies it to stdout.
+class TemporaryFile {
+ public:
+  static StatusOr<TemporaryFile> create(const std::filesystem::path& dir, const std::string& prefix,
+                                        const std::string& extension);
+  TemporaryFile(TemporaryFile&& other) noexcept;
+  TemporaryFile& operator=(TemporaryFile&&) = delete;
+  TemporaryFile(const TemporaryFile&) = delete;
+  TemporaryFile& operator=(const TemporaryFile&) = delete;
+  ~TemporaryFile();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  TemporaryFile() = default;
+  std::filesystem::path path_;
+  int slot_ = -1;
+};
+
 // Several files that appear together or not at all (a rendered sequence and its times): each is
 // written complete into a hidden folder beside the targets, and commit() renames them into
 // place one by one. Until then nothing outside the folder changes; abandon(), the destructor,

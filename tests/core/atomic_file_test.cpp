@@ -137,6 +137,55 @@ TEST(AtomicFile, ASignalLeavesTheOldFileAndNoTemporary) {
   }
 }
 
+// A signal at any moment of a writer's life leaves no temporary file: a child opens and abandons
+// writers in a loop until SIGINT stops it at some point of it. When the temporary file was
+// created (mkstemp) before the handler knew of it, a signal that came while the creation was in
+// the kernel ran the handler just after it, and the file stayed; now the name is registered
+// before the file exists.
+TEST(AtomicFile, ASignalAtAnyMomentLeavesNoTemporary) {
+  for (int trial = 0; trial < 40; ++trial) {
+    test::TempDir dir;
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      remove_temporary_files_on_signals();
+      for (;;) {
+        AtomicFileWriter w;
+        if (!w.open(dir.path() / "out").ok()) _exit(3);
+        auto scratch = TemporaryFile::create(dir.path(), "scratch-", ".ply");
+        if (!scratch.ok()) _exit(3);
+      }
+    }
+    usleep(static_cast<useconds_t>(2000 + 500 * (trial % 8)));
+    ASSERT_EQ(kill(child, SIGINT), 0);
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status)) << status;
+    EXPECT_EQ(test::count_files(dir.path()), 0u) << "trial " << trial;
+  }
+}
+
+// A TemporaryFile: its prefix and extension, a name of its own, gone when it is destroyed.
+TEST(TemporaryFile, IsNamedAsAskedAndRemovedWhenDestroyed) {
+  test::TempDir dir;
+  std::filesystem::path first;
+  {
+    auto a = TemporaryFile::create(dir.path(), "sspc-stdout-", ".las");
+    auto b = TemporaryFile::create(dir.path(), "sspc-stdout-", ".las");
+    ASSERT_TRUE(a.ok() && b.ok());
+    first = a->path();
+    EXPECT_NE(a->path(), b->path());
+    EXPECT_TRUE(std::filesystem::is_regular_file(a->path()));
+    EXPECT_EQ(a->path().parent_path(), dir.path());
+    EXPECT_EQ(a->path().extension(), ".las");
+    EXPECT_EQ(a->path().filename().string().rfind("sspc-stdout-", 0), 0u);
+    EXPECT_EQ(test::count_files(dir.path()), 2u);
+  }
+  EXPECT_FALSE(std::filesystem::exists(first));
+  EXPECT_EQ(test::count_files(dir.path()), 0u);
+  EXPECT_FALSE(TemporaryFile::create(dir.path() / "missing", "x-", "").ok());
+}
+
 TEST(MappedFile, MapsBytesAndReportsMissingFiles) {
   test::TempDir dir;
   const auto p = dir.path() / "data.bin";
