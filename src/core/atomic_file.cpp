@@ -56,7 +56,7 @@ void unregister_temporary(int i) {
   g_temp_slots[i].taken.store(false, std::memory_order_release);
 }
 
-// `prefix` and six characters that differ from call to call and from process to process.
+// Six characters (letters and digits) that differ from call to call and from process to process.
 std::string random_suffix() {
   static std::atomic<std::uint64_t> counter{0};
   struct timespec now {};
@@ -76,7 +76,8 @@ std::string random_suffix() {
   return suffix;
 }
 
-// Creates `prefix` + six random characters + `extension`, a file (its descriptor returned, open for writing)
+// Creates `prefix` + six random characters + `extension`, a file (its descriptor returned, open
+// for writing)
 // or a folder (0 returned), registered for the signal handler before it exists, so that no
 // moment passes with the file there and unknown to the handler: with mkstemp and then the
 // registration, a signal that arrived while mkstemp's open() was in the kernel ran the handler
