@@ -77,8 +77,7 @@ std::string random_suffix() {
 }
 
 // Creates `prefix` + six random characters + `extension`, a file (its descriptor returned, open
-// for writing)
-// or a folder (0 returned), registered for the signal handler before it exists, so that no
+// for writing) or a folder (0 returned), registered for the signal handler before it exists, so that no
 // moment passes with the file there and unknown to the handler: with mkstemp and then the
 // registration, a signal that arrived while mkstemp's open() was in the kernel ran the handler
 // between the two and the file stayed (an interrupted `sspc normals` left one on a loaded
