@@ -76,8 +76,9 @@ TEST(MappedFile, ARegularFileStillMaps) {
 }
 
 // A file of `bytes` bytes, none of them zero.
-std::filesystem::path write_pattern_file(const test::TempDir& dir, std::size_t bytes) {
-  const auto path = dir.path() / "shrinking.bin";
+std::filesystem::path write_pattern_file(const test::TempDir& dir, std::size_t bytes,
+                                         const char* name = "shrinking.bin") {
+  const auto path = dir.path() / name;
   std::FILE* f = std::fopen(path.c_str(), "wb");
   for (std::size_t i = 0; i < bytes; ++i) std::fputc(static_cast<int>(1 + i % 251), f);
   std::fclose(f);
@@ -191,10 +192,19 @@ void default_sigbus() {
   sigaction(SIGBUS, &action, nullptr);
 }
 
+// A death test's child runs the test's body again, so it has a TempDir of its own, which it
+// removes before it dies (its destructor never runs): 42 such folders were left in /tmp before.
+void remove_before_dying(const test::TempDir& dir) {
+  std::error_code ec;
+  std::filesystem::remove_all(dir.path(), ec);
+}
+
+// Opens a MappedFile of a file in `dir` and then removes `dir`: the handler is installed.
 void open_some_mapping(const test::TempDir& dir) {
-  const auto path = write_pattern_file(dir, 100);
+  const auto path = write_pattern_file(dir, 100, "some.bin");
   const StatusOr<MappedFile> file = MappedFile::open(path);
   if (!file.ok()) std::_Exit(3);
+  remove_before_dying(dir);
 }
 
 TEST_F(MappedFileSignals, AnotherSigbusStillKillsTheProcess) {
@@ -213,12 +223,12 @@ TEST_F(MappedFileSignals, AFaultInAMappingOfSomeoneElseStillKillsTheProcess) {
   EXPECT_EXIT(
       {
         default_sigbus();
-        open_some_mapping(dir);
         const auto path = write_pattern_file(dir, 3 * page_size());
-        const int fd = ::open(path.c_str(), O_RDONLY);
+        const int fd = ::open(path.c_str(), O_RDWR);
         const auto* p = static_cast<const volatile char*>(
             mmap(nullptr, 3 * page_size(), PROT_READ, MAP_PRIVATE, fd, 0));
-        if (truncate(path.c_str(), 0) != 0) std::_Exit(3);
+        open_some_mapping(dir);  // removes the folder; the descriptor keeps the file
+        if (ftruncate(fd, 0) != 0) std::_Exit(3);
         std::_Exit(p[2 * page_size()]);
       },
       ::testing::KilledBySignal(SIGBUS), "");
