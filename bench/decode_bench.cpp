@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <random>
@@ -183,8 +184,13 @@ BENCHMARK(BM_DecodePatchCold)
     ->Unit(benchmark::kMicrosecond);
 
 // dragon_scans.ply at the default level, encoded once per run; empty when the data is absent.
+// SSPC_DECODE_BENCH_MODEL names a model to measure instead (another scan or level: autzen's
+// patches of 131,072 points at level 8, say).
 const std::filesystem::path& scan_file() {
   static const std::filesystem::path path = [] {
+    if (const char* model = std::getenv("SSPC_DECODE_BENCH_MODEL"); model != nullptr && *model != 0) {
+      return std::filesystem::path(model);
+    }
     const std::filesystem::path source = std::filesystem::path(SSPC_DATA_DIR) / "dragon_scans.ply";
     const std::filesystem::path out = std::filesystem::temp_directory_path() / "sspc_decode_bench_dragon.sspc";
     auto cloud = sspc::read_point_cloud(source);

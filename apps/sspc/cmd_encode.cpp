@@ -237,9 +237,9 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
       ->check(CLI::Range(0, 9).description(""))
       ->type_name("0..9")
       ->capture_default_str();
-  app->add_option("--patch-points", o->patch_points, "Expected points per patch sphere (overrides the level's, which doubles past 4.2M points and again past 8.4M)")
-      ->check(CLI::Range(8, 65536).description(""))
-      ->type_name("8..65536");
+  app->add_option("--patch-points", o->patch_points, "Expected points per patch sphere (overrides the level's, which doubles past 4.2M points and again past 8.4M, and at levels 8 and 9 once more)")
+      ->check(CLI::Range(8, kMaxPatchPoints).description(""))
+      ->type_name("8.." + std::to_string(kMaxPatchPoints));
   app->add_option("--epsilon", o->epsilon, "Descriptor L1 radius (overrides the level)")
       ->check(number_in(0, 1000, true))
       ->type_name("0<X<=1000");

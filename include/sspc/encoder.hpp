@@ -22,6 +22,10 @@ inline constexpr unsigned kAttributeClassification = 1u << 2;  // las.classifica
 inline constexpr unsigned kAttributeReturns = 1u << 3;  // las.return_number and number_of_returns, lossless
 inline constexpr unsigned kAllAttributes = 0xF;
 
+// The most points a patch may be asked to hold (EncodeOptions::patch_points): what the level
+// table gives the coarsest levels of the largest models (docs/FORMAT_NOTES.md, "Level table").
+inline constexpr int kMaxPatchPoints = 131072;
+
 // The colour quantisation step for a colour quality 0..100: 2^((100 − quality) · 6 / 100)
 // rounded, so 100 is lossless, every ~17 points halve the step (about 6 dB of colour PSNR) and
 // 0 gives a step of 64.
@@ -30,7 +34,7 @@ int colour_step_for_quality(int quality);
 struct EncodeOptions {
   int level = 5;  // 0 (most detail) .. 9 (smallest); one row of docs/FORMAT.md's level table
   // Expert overrides of single fields of the level's row.
-  std::optional<int> patch_points;  // expected points per patch, 8..65536
+  std::optional<int> patch_points;  // expected points per patch, 8..kMaxPatchPoints
   std::optional<float> epsilon;     // descriptor L1 radius, > 0
   std::optional<float> tau;         // MLS error threshold in point spacings, > 0
   std::optional<int> position_bits; // code-word coordinate bits, 4..16 (instead of the level's step)

@@ -469,7 +469,7 @@ dict (level, points, patches, codewords, bits_per_point, file_bytes, ..., second
 file's bytes come back instead (encoded through a temporary file, then read into one bytes object).
 
 The keyword arguments mirror `sspc encode --help`: level 0 (most detail) .. 9 (smallest);
-patch_points (8..65536), epsilon, tau, step (grid step in spacings), position_bits (4..16) override
+patch_points (8..131072), epsilon, tau, step (grid step in spacings), position_bits (4..16) override
 single fields of the level;
 store_normals keeps the code words' normals; full_spheres keeps each code word's whole sphere;
 keep_duplicates stores every point, also several in one cell of the code words' grid;

@@ -72,8 +72,9 @@ Status check_options(const EncodeOptions& o) {
   if (o.level < codec::kMinLevel || o.level > codec::kMaxLevel) {
     return invalid_argument("level must be 0..9, got " + std::to_string(o.level));
   }
-  if (o.patch_points && (*o.patch_points < 8 || *o.patch_points > 65536)) {
-    return invalid_argument("patch points must be 8..65536, got " + std::to_string(*o.patch_points));
+  if (o.patch_points && (*o.patch_points < 8 || *o.patch_points > kMaxPatchPoints)) {
+    return invalid_argument("patch points must be 8.." + std::to_string(kMaxPatchPoints) + ", got " +
+                            std::to_string(*o.patch_points));
   }
   if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon <= 1e3f)) {
     return invalid_argument("epsilon must be in (0, 1000], got " + std::to_string(*o.epsilon));

@@ -58,10 +58,24 @@ constexpr std::array<LevelParams, 10> kLevels = {{
 constexpr int kModelSizeOctaves = 2;  // at most 2^2 = 4 times the row's size
 constexpr std::uint64_t kRowSizePoints = std::uint64_t{1} << 21;
 
+// Past 2^23 points, the levels whose grid is coarser than kCoarseStep spacings (8 and 9) grow
+// one octave more, to eight times the row's size (kMaxPatchPoints): one point a cell of 2.5 or
+// 3.6 spacings keeps about a seventh or a thirteenth of a surface's points (autzen level 8: 5.45M
+// of 10.65M in code words, merged), so their code words hold no more points than level 5's do
+// at four times its row. autzen, bits over G-PCC's at the same PSNR: level 8 1.156 -> 1.139
+// (1.469 -> 1.466 bits a point, 75.30 -> 75.35 dB), level 9 1.028 -> 1.007 (0.783 -> 0.772,
+// 73.06 -> 73.12 dB). The price is random access at those levels, whose patches decode
+// resampled: a warm patch 18 -> 37 ms at level 8 and 12 -> 23 ms at level 9, a whole decode
+// 7.7 -> 8.7 s and 4.9 -> 5.3 s (decode_bench with SSPC_DECODE_BENCH_MODEL, one run each;
+// docs/FORMAT_NOTES.md, "Level table").
+constexpr float kCoarseStep = 2.0f;
+
 LevelParams level_params(int level, std::uint64_t points) {
   LevelParams row = kLevels[static_cast<std::size_t>(level)];
   const std::uint64_t times = std::bit_floor(std::max<std::uint64_t>(points / kRowSizePoints, 1));
-  row.patch_points <<= std::min(std::countr_zero(times), kModelSizeOctaves);
+  int octaves = std::min(std::countr_zero(times), kModelSizeOctaves);
+  if (octaves == kModelSizeOctaves && row.position_step > kCoarseStep) ++octaves;
+  row.patch_points <<= octaves;
   return row;
 }
 

@@ -21,7 +21,7 @@ inline constexpr int kDefaultLevel = 5;
 
 // Requires kMinLevel ≤ level ≤ kMaxLevel. `points`, the model's points when known, scales the
 // row's patch size for large models: the row's up to 2^22 points, twice it up to 2^23, four
-// times it beyond (at most 65536 at levels 8 and 9).
+// times it beyond, eight times at levels 8 and 9 (131072 points, kMaxPatchPoints).
 LevelParams level_params(int level, std::uint64_t points = 0);
 
 }  // namespace sspc::codec

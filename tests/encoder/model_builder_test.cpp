@@ -55,7 +55,8 @@ BuildOptions options_for_level(int level) {
 }
 
 // Large models take larger patches (levels.cpp): the row's size up to 2^22 points (every scan of
-// an object), twice it up to 2^23, four times it beyond, and the rest of the row as it is.
+// an object), twice it up to 2^23, four times it beyond (eight at levels 8 and 9), and the rest
+// of the row as it is.
 TEST(LevelParams, PatchSizeFollowsLargeModels) {
   for (int level = kMinLevel; level <= kMaxLevel; ++level) {
     const LevelParams row = level_params(level);
@@ -63,9 +64,11 @@ TEST(LevelParams, PatchSizeFollowsLargeModels) {
     EXPECT_EQ(level_params(level, (1u << 22) - 1).patch_points, row.patch_points) << level;
     EXPECT_EQ(level_params(level, 1u << 22).patch_points, 2 * row.patch_points) << level;
     EXPECT_EQ(level_params(level, 5000000).patch_points, 2 * row.patch_points) << level;
-    EXPECT_EQ(level_params(level, 10653336).patch_points, 4 * row.patch_points) << level;  // autzen
-    EXPECT_EQ(level_params(level, 1ull << 40).patch_points, 4 * row.patch_points) << level;
-    EXPECT_LE(level_params(level, 1ull << 40).patch_points, 65536);  // what --patch-points allows
+    // Past 2^23 points, levels 8 and 9 (grids coarser than 2 spacings) eight times.
+    const int beyond = level >= 8 ? 8 : 4;
+    EXPECT_EQ(level_params(level, 10653336).patch_points, beyond * row.patch_points) << level;  // autzen
+    EXPECT_EQ(level_params(level, 1ull << 40).patch_points, beyond * row.patch_points) << level;
+    EXPECT_LE(level_params(level, 1ull << 40).patch_points, kMaxPatchPoints);  // what --patch-points allows
     int previous = row.patch_points;
     for (std::uint64_t points = 1u << 20; points <= (1u << 25); points += points / 3) {
       const int size = level_params(level, points).patch_points;
