@@ -5,7 +5,7 @@
 #
 # Usage: scripts/rd_codec.sh [DATA_DIR]     (default ../shared/data)
 #   LEVELS="0 1 2 3 4 5 6 7 8 9"  sspc levels for the small scans
-#   AUTZEN_LEVELS="3 5 7 9"   sspc levels for autzen.ply (10.6M points: minutes per level)
+#   AUTZEN_LEVELS="3 5 7 8 9" sspc levels for autzen.ply (10.6M points: minutes per level)
 #   DRACO_QP="6 8 10 11 12 14 16"  Draco position quantisation bits
 #   SCANS="bunny igea dragon_scans autzen"
 #   KEEP_DIR=dir              keep each model (SCAN.lLEVEL.sspc) and its encode --json there
@@ -17,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 data="${1:-../shared/data}"
 LEVELS="${LEVELS:-0 1 2 3 4 5 6 7 8 9}"
-AUTZEN_LEVELS="${AUTZEN_LEVELS:-3 5 7 9}"
+AUTZEN_LEVELS="${AUTZEN_LEVELS:-3 5 7 8 9}"
 DRACO_QP="${DRACO_QP:-6 8 10 11 12 14 16}"
 SCANS="${SCANS:-bunny igea dragon_scans autzen}"
 if [ ! -d "$data" ]; then
