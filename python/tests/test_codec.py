@@ -53,7 +53,7 @@ def test_levels_trade_rate_for_detail(bumps):
 
 def test_info_describes_the_model(bunny_model, bunny_model_path, bunny):
     info = bunny_model.info()
-    assert info["format"] == "sspc" and info["version"] == 6
+    assert info["format"] == "sspc" and info["version"] == 7
     assert info["source_points"] == len(bunny)
     assert info["patches"] == bunny_model.patch_count
     assert info["codewords"] == bunny_model.codeword_count

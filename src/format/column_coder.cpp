@@ -703,6 +703,13 @@ ColumnModels::ColumnModels(int format_version)
       empty(kProbabilityHalf),
       other_zero(kProbabilityHalf),
       other_sign(kProbabilityHalf) {
+  if (format_version >= 7) {
+    for (auto* values : {&rectangle[0], &rectangle[1], &rectangle[2], &rectangle[3], &shift, &other_magnitude, &gap[0],
+                         &gap[1]}) {
+      values->use_unary_lengths();
+    }
+    for (auto& values : magnitude) values.use_unary_lengths();
+  }
   occupied.fill(kProbabilityHalf);
   for (auto& row : apm) {
     for (std::size_t i = 0; i < kSecondaryNodes; ++i) row[i] = static_cast<std::uint16_t>(32 * kKnots[i]);

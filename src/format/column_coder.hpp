@@ -1,4 +1,4 @@
-// The position coder of versions 3 to 6's code words (docs/FORMAT.md, "The columns"): a code word's
+// The position coder of versions 3 to 7's code words (docs/FORMAT.md, "The columns"): a code word's
 // grid points as columns along its frame's z axis, which is the patch's mean normal. The
 // occupied columns are a binary image over the code word's bounding rectangle, coded cell by
 // cell under a context of ten cells already coded (as JBIG codes bilevel images); each column's
@@ -32,8 +32,8 @@ inline constexpr std::size_t kMaxColumnPointsPerByte = 1024;
 // decode independently), for the format version the block belongs to (version 5 changes only how
 // heights are predicted and their contexts chosen, not the models): version 4 splits each of
 // version 3's contexts of "another point" five ways by where the predicted plane reaches, and
-// version 6 refines each occupancy bit's probability by six farther cells (docs/FORMAT.md, "The
-// columns").
+// version 6 refines each occupancy bit's probability by six farther cells, and version 7's value
+// models code their lengths in unary (docs/FORMAT.md, "The columns" and "Range coding").
 struct ColumnModels {
   static constexpr std::size_t kOccupancyContexts = 1024;
   static constexpr std::size_t kHeightContexts = 15;  // 3 predictor kinds × 5 spreads
@@ -41,7 +41,7 @@ struct ColumnModels {
   static constexpr std::size_t kReaches = 5;
   static constexpr std::size_t kSecondaryContexts = 64;  // six farther cells
   static constexpr std::size_t kSecondaryNodes = 33;
-  explicit ColumnModels(int format_version = 6);
+  explicit ColumnModels(int format_version = 7);
   bool plane_reach;  // version 4's contexts
   bool point_plane;  // version 5's plane at each point's own column, its context by the residuals
   bool secondary;    // version 6's secondary estimates of the occupancy bits

@@ -15,8 +15,9 @@ namespace sspc::codec {
 inline constexpr std::array<std::uint8_t, 8> kMagic = {0x8A, 'S', 'P', 'C', 0x0D, 0x0A, 0x1A, 0x0A};
 // The version the writer writes, and the oldest one readers still decode. Versions 2 to 5
 // changed only the code-book blocks' position layout (FORMAT.md, "Code-book blocks"; version 4
-// only the columns' contexts of "another point", version 5 only their height prediction).
-inline constexpr std::uint16_t kFormatVersion = 6;
+// only the columns' contexts of "another point", version 5 only their height prediction), and
+// so did 6 and 7 (6 the occupancy bits' probabilities, 7 how the columns' values code lengths).
+inline constexpr std::uint16_t kFormatVersion = 7;
 inline constexpr std::uint16_t kOldestFormatVersion = 1;
 
 inline constexpr std::uint16_t kFlagNormals = 1u << 0;

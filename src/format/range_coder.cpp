@@ -67,10 +67,15 @@ double ValueModel::cost(std::uint32_t value) const {
   const auto length = static_cast<std::uint32_t>(std::bit_width(value));
   double bits = 0;
   std::uint32_t node = 1;
-  for (int i = 4; i >= 0; --i) {
-    const unsigned bit = (length >> i) & 1u;
-    bits += bit_cost(length_[node], bit);
-    node = (node << 1) | bit;
+  if (unary_) {
+    for (std::uint32_t i = 0; i < length; ++i) bits += bit_cost(length_[i], 1);
+    if (length < kMaxBits) bits += bit_cost(length_[length], 0);
+  } else {
+    for (int i = 4; i >= 0; --i) {
+      const unsigned bit = (length >> i) & 1u;
+      bits += bit_cost(length_[node], bit);
+      node = (node << 1) | bit;
+    }
   }
   if (length < 2) return bits;
   const int rest = static_cast<int>(length) - 1;
@@ -87,10 +92,15 @@ double ValueModel::cost(std::uint32_t value) const {
 void ValueModel::encode(RangeEncoder& rc, std::uint32_t value) {
   const auto length = static_cast<std::uint32_t>(std::bit_width(value));  // 0 for 0, ≤ 16
   std::uint32_t node = 1;
-  for (int i = 4; i >= 0; --i) {
-    const unsigned bit = (length >> i) & 1u;
-    rc.encode(length_[node], bit);
-    node = (node << 1) | bit;
+  if (unary_) {
+    for (std::uint32_t i = 0; i < length; ++i) rc.encode(length_[i], 1);
+    if (length < kMaxBits) rc.encode(length_[length], 0);
+  } else {
+    for (int i = 4; i >= 0; --i) {
+      const unsigned bit = (length >> i) & 1u;
+      rc.encode(length_[node], bit);
+      node = (node << 1) | bit;
+    }
   }
   if (length < 2) return;
   const int rest = static_cast<int>(length) - 1;  // bits below the leading one
@@ -106,11 +116,17 @@ void ValueModel::encode(RangeEncoder& rc, std::uint32_t value) {
 
 std::uint32_t ValueModel::decode(RangeDecoder& rc) {
   std::uint32_t node = 1;
-  for (int i = 0; i < 5; ++i) node = (node << 1) | rc.decode(length_[node]);
-  const std::uint32_t length = node - 32;
+  std::uint32_t length = 0;
+  if (unary_) {
+    // At most 16 decisions: a length cannot pass 16.
+    while (length < kMaxBits && rc.decode(length_[length]) != 0) ++length;
+  } else {
+    for (int i = 0; i < 5; ++i) node = (node << 1) | rc.decode(length_[node]);
+    length = node - 32;
+  }
   if (length < 2) return length;  // 0 → 0, 1 → 1
-  // A corrupt stream may code a length past 16: clamp, the caller's range checks catch the
-  // value (and the block's CRC has already failed for a corrupt stream).
+  // A corrupt stream may code a length past 16 in the tree: clamp, the caller's range checks
+  // catch the value (and the block's CRC has already failed for a corrupt stream).
   const std::uint32_t bits = length > kMaxBits ? kMaxBits : length;
   const int rest = static_cast<int>(bits) - 1;
   const int modelled = rest < 2 ? rest : 2;

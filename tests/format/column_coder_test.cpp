@@ -20,12 +20,14 @@
 namespace sspc::codec {
 namespace {
 
-// ColumnCoder.Version5StreamIsPinned's and Version6StreamIsPinned's streams (written by these
-// tests when versions 5 and 6 were made).
+// ColumnCoder.Version5StreamIsPinned's to Version7StreamIsPinned's streams (written by these
+// tests when versions 5, 6 and 7 were made).
 constexpr std::size_t kPinnedVersion5Bytes = 43715;
 constexpr std::uint32_t kPinnedVersion5Crc = 3607470155u;
 constexpr std::size_t kPinnedVersion6Bytes = 42975;
 constexpr std::uint32_t kPinnedVersion6Crc = 560384068u;
+constexpr std::size_t kPinnedVersion7Bytes = 42811;
+constexpr std::uint32_t kPinnedVersion7Crc = 3481959976u;
 
 using Point = std::array<std::uint32_t, 3>;
 using Points = std::vector<Point>;
@@ -213,6 +215,13 @@ TEST(ColumnCoder, Version6StreamIsPinned) {
   const std::string stream = pinned_words_stream(6);
   EXPECT_EQ(stream.size(), kPinnedVersion6Bytes);
   EXPECT_EQ(crc32_of(stream_bytes(stream)), kPinnedVersion6Crc);
+}
+
+// Version 7's, pinned as version 6's is: any change to how its values code lengths changes it.
+TEST(ColumnCoder, Version7StreamIsPinned) {
+  const std::string stream = pinned_words_stream(7);
+  EXPECT_EQ(stream.size(), kPinnedVersion7Bytes);
+  EXPECT_EQ(crc32_of(stream_bytes(stream)), kPinnedVersion7Crc);
 }
 
 // Samples on a lattice of 4 × 4 columns (a scanner's grid at four columns a pitch), a few
