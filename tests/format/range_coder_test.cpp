@@ -18,10 +18,18 @@ std::span<const std::byte> bytes_of(const std::string& s) {
   return std::as_bytes(std::span<const char>(s.data(), s.size()));
 }
 
-std::string encode_values(const std::vector<std::uint32_t>& values, int models) {
+std::vector<ValueModel> value_models(int models, bool unary) {
+  std::vector<ValueModel> m(static_cast<std::size_t>(models));
+  if (unary) {
+    for (ValueModel& v : m) v.use_unary_lengths();
+  }
+  return m;
+}
+
+std::string encode_values(const std::vector<std::uint32_t>& values, int models, bool unary = false) {
   std::string out;
   RangeEncoder rc(out);
-  std::vector<ValueModel> m(static_cast<std::size_t>(models));
+  std::vector<ValueModel> m = value_models(models, unary);
   for (std::size_t i = 0; i < values.size(); ++i) m[i % m.size()].encode(rc, values[i]);
   rc.finish();
   return out;
@@ -29,9 +37,9 @@ std::string encode_values(const std::vector<std::uint32_t>& values, int models) 
 
 // Decodes `count` values; false when the decoder says the stream was not exactly this one.
 bool decode_values(const std::string& stream, std::size_t count, int models,
-                   std::vector<std::uint32_t>& out) {
+                   std::vector<std::uint32_t>& out, bool unary = false) {
   RangeDecoder rc(bytes_of(stream));
-  std::vector<ValueModel> m(static_cast<std::size_t>(models));
+  std::vector<ValueModel> m = value_models(models, unary);
   out.clear();
   for (std::size_t i = 0; i < count; ++i) out.push_back(m[i % m.size()].decode(rc));
   return rc.finish();
@@ -49,6 +57,39 @@ TEST(RangeCoder, RoundTripsEveryValueWidth) {
   std::vector<std::uint32_t> decoded;
   ASSERT_TRUE(decode_values(stream, values.size(), 3, decoded));
   EXPECT_EQ(decoded, values);
+}
+
+// Version 7's lengths in unary: the same round trips, 16 included (sixteen 1s and no 0), a
+// stream that a tree-coded reader does not read back, and what coding costs: a fresh model
+// codes a 0 in one decision of ½ (1 bit) where the tree spends five.
+TEST(RangeCoder, UnaryLengthsRoundTripAndCostOneDecisionALength) {
+  std::mt19937 rng(11);
+  std::vector<std::uint32_t> values;
+  for (int bits = 0; bits <= 16; ++bits) {
+    for (int i = 0; i < 200; ++i) values.push_back(bits == 0 ? 0 : static_cast<std::uint32_t>(rng() % (1u << bits)));
+  }
+  values.push_back(0xFFFF);
+  values.push_back(0x8000);
+  const std::string stream = encode_values(values, 3, true);
+  std::vector<std::uint32_t> decoded;
+  ASSERT_TRUE(decode_values(stream, values.size(), 3, decoded, true));
+  EXPECT_EQ(decoded, values);
+  EXPECT_FALSE(decode_values(stream, values.size(), 3, decoded, false) && decoded == values);
+
+  ValueModel tree, unary;
+  unary.use_unary_lengths();
+  EXPECT_DOUBLE_EQ(unary.cost(0), 1.0);
+  EXPECT_DOUBLE_EQ(tree.cost(0), 5.0);
+  EXPECT_DOUBLE_EQ(unary.cost(1), 2.0);                // 1 then 0
+  EXPECT_DOUBLE_EQ(unary.cost(0xFFFF), 16.0 + 15.0);  // sixteen 1s, two modelled and 13 direct bits
+  // Geometric values: the unary lengths learn them at least as well as the tree.
+  std::vector<std::uint32_t> geometric;
+  for (int i = 0; i < 5000; ++i) {
+    std::uint32_t v = 0;
+    while ((rng() & 3u) == 0 && v < 60) ++v;
+    geometric.push_back(v);
+  }
+  EXPECT_LT(encode_values(geometric, 1, true).size(), encode_values(geometric, 1, false).size());
 }
 
 TEST(RangeCoder, SkewedDataCostsCloseToItsEntropy) {
