@@ -686,7 +686,8 @@ Status ContainerStreamWriter::Impl::write_codebook_blocks(bool last) {
 // coded patch by patch; blocks are coded (in parallel) as soon as every patch of theirs is.
 StatusOr<std::string> ContainerStreamWriter::Impl::attribute_part(CompressedModel& geometry,
                                                                   const TileSource& source) {
-  const AttributeParams& params = options.attributes;
+  AttributeParams params = options.attributes;
+  params.unary_lengths = options.format_version >= 7;
   const std::size_t per = h.patches_per_block;
   const auto blocks = static_cast<std::size_t>(block_count(h.patch_count, h.patches_per_block));
   std::vector<std::string> block_bytes(blocks);

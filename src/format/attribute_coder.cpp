@@ -154,12 +154,20 @@ bool walk(std::uint8_t channel, const AttributeParams& params, const AttributeRe
       return rc.overrun();
     }
   };
+  const auto lengths = [&params](auto& models) {
+    if (params.unary_lengths) {
+      for (ValueModel& m : models) m.use_unary_lengths();
+    }
+  };
   if (channel == kChannelColour) {
     const std::int32_t s = params.colour_step;
     std::array<Component, 3> comp = {Component{0, 255, 128, s, {}, {}},
                                      Component{-255, 255, 0, s, {}, {}},
                                      Component{-255, 255, 0, s, {}, {}}};
-    for (Component& c : comp) c.rec.reserve(n);
+    for (Component& c : comp) {
+      c.rec.reserve(n);
+      lengths(c.models);
+    }
     for (std::size_t i = 0; i < n; ++i) {
       std::array<std::int32_t, 3> v{};
       if constexpr (kEncode) v = to_ycocg(io.colours[base + i]);
@@ -171,6 +179,7 @@ bool walk(std::uint8_t channel, const AttributeParams& params, const AttributeRe
   } else if (channel == kChannelIntensity) {
     Component c{0, 65535, 0, params.intensity_step, {}, {}};
     c.rec.reserve(n);
+    lengths(c.models);
     for (std::size_t i = 0; i < n; ++i) {
       std::int32_t v = 0;
       if constexpr (kEncode) v = io.las.intensity[base + i];
@@ -182,6 +191,7 @@ bool walk(std::uint8_t channel, const AttributeParams& params, const AttributeRe
     const bool classes = channel == kChannelClassification;
     Symbol sym;
     sym.rec.reserve(n);
+    lengths(sym.models);
     for (std::size_t i = 0; i < n; ++i) {
       std::int32_t v = 0;
       if constexpr (kEncode) {

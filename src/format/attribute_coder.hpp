@@ -39,6 +39,9 @@ struct AttributeParams {
   std::uint8_t channels = 0;  // kChannel* bits
   int colour_step = 1;        // 1..kMaxColourStep; 1 is lossless
   int intensity_step = 1;     // 1..kMaxIntensityStep; 1 is lossless
+  // Version 7's value models code lengths in unary (docs/FORMAT.md, "Range coding"): not stored,
+  // it follows the file's format version (the reader and the writer set it).
+  bool unary_lengths = false;
   int channel_count() const;
 };
 

@@ -379,6 +379,7 @@ StatusOr<ContainerReader> ContainerReader::open(std::span<const std::byte> bytes
     auto attributes_end = read_attribute_part(bytes, end, block_count(h.patch_count, h.patches_per_block),
                                               fail, r.attributes_, r.attribute_blocks_);
     if (!attributes_end.ok()) return attributes_end.status();
+    r.attributes_.unary_lengths = h.version >= 7;
     r.attribute_part_bytes_ = *attributes_end - end;
     end = *attributes_end;
   }
