@@ -100,7 +100,8 @@ Status check_options(const EncodeOptions& o) {
 
 Status check_size(std::uint64_t points, const Box3f& bounds) {
   if (points < 16) {
-    return invalid_argument("the cloud has " + std::to_string(points) + " points; sspc encode needs at least 16");
+    return invalid_argument("the cloud has " + std::to_string(points) + (points == 1 ? " point" : " points") +
+                            "; sspc encode needs at least 16");
   }
   if (points >= 0xFFFFFFFFu) return resource_exhausted("sspc encode handles fewer than 2^32 points");
   if (bounds.isEmpty() || !((bounds.max().cast<double>() - bounds.min().cast<double>()).norm() > 0)) {
