@@ -45,12 +45,18 @@ bool decode_values(const std::string& stream, std::size_t count, int models,
   return rc.finish();
 }
 
-TEST(RangeCoder, RoundTripsEveryValueWidth) {
-  std::mt19937 rng(7);
+// 200 random values of each bit width 0 … 16.
+std::vector<std::uint32_t> every_width(std::mt19937& rng) {
   std::vector<std::uint32_t> values;
   for (int bits = 0; bits <= 16; ++bits) {
     for (int i = 0; i < 200; ++i) values.push_back(bits == 0 ? 0 : static_cast<std::uint32_t>(rng() % (1u << bits)));
   }
+  return values;
+}
+
+TEST(RangeCoder, RoundTripsEveryValueWidth) {
+  std::mt19937 rng(7);
+  std::vector<std::uint32_t> values = every_width(rng);
   values.push_back(0xFFFF);
   values.push_back(1);
   const std::string stream = encode_values(values, 3);
@@ -64,10 +70,7 @@ TEST(RangeCoder, RoundTripsEveryValueWidth) {
 // codes a 0 in one decision of ½ (1 bit) where the tree spends five.
 TEST(RangeCoder, UnaryLengthsRoundTripAndCostOneDecisionALength) {
   std::mt19937 rng(11);
-  std::vector<std::uint32_t> values;
-  for (int bits = 0; bits <= 16; ++bits) {
-    for (int i = 0; i < 200; ++i) values.push_back(bits == 0 ? 0 : static_cast<std::uint32_t>(rng() % (1u << bits)));
-  }
+  std::vector<std::uint32_t> values = every_width(rng);
   values.push_back(0xFFFF);
   values.push_back(0x8000);
   const std::string stream = encode_values(values, 3, true);
