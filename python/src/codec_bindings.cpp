@@ -312,9 +312,27 @@ py::dict codeword(const CompressedModel& model, py::ssize_t c) {
   return d;
 }
 
+// The buffer's bytes in logical order: a strided or reversed view (numpy's a[::-1], a[::2]) is
+// gathered through its strides by CPython's PyBuffer_ToContiguous, never read as if contiguous
+// from its first element (which, for a negative stride, lies at the end of its memory).
+std::string buffer_bytes(const py::buffer& buffer) {
+  Py_buffer view;
+  if (PyObject_GetBuffer(buffer.ptr(), &view, PyBUF_FULL_RO) != 0) throw py::error_already_set();
+  std::string bytes;
+  try {
+    bytes.resize(static_cast<std::size_t>(view.len));
+  } catch (...) {
+    PyBuffer_Release(&view);
+    throw;
+  }
+  const int copied = PyBuffer_ToContiguous(bytes.data(), &view, view.len, 'C');
+  PyBuffer_Release(&view);
+  if (copied != 0) throw py::error_already_set();
+  return bytes;
+}
+
 CompressedModel from_buffer(const py::buffer& buffer) {
-  const py::buffer_info info = buffer.request();
-  std::string bytes(static_cast<const char*>(info.ptr), static_cast<std::size_t>(info.size * info.itemsize));
+  std::string bytes = buffer_bytes(buffer);
   return value_or_raise(without_gil([&] { return CompressedModel::from_bytes(std::move(bytes)); }));
 }
 

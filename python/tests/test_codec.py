@@ -142,6 +142,20 @@ def test_from_bytes_decodes_like_open(bunny_model, bunny_model_path):
         np.testing.assert_array_equal(model.decode_all().positions, bunny_model.decode_all().positions)
 
 
+def test_from_bytes_reads_strided_and_reversed_views_in_logical_order(bunny_model, bunny_model_path):
+    data = np.frombuffer(bunny_model_path.read_bytes(), np.uint8)
+    reversed_view = data[::-1].copy()[::-1]  # negative stride: its first element is at the end
+    strided_view = np.repeat(data, 2)[::2]  # stride 2
+    assert reversed_view.strides[0] < 0 and strided_view.strides[0] == 2
+    expected = bunny_model.decode_all().positions
+    for view in (reversed_view, strided_view, memoryview(strided_view)):
+        model = sspc.CompressedModel.from_bytes(view)
+        np.testing.assert_array_equal(model.decode_all().positions, expected)
+    # A large zero buffer viewed backwards is read within its bounds and refused by its content.
+    with pytest.raises(RuntimeError, match="not an .sspc file"):
+        sspc.CompressedModel.from_bytes(np.zeros(50_000_000, np.uint8)[::-1])
+
+
 def test_store_normals_decodes_normals(bumps):
     model = sspc.CompressedModel.from_bytes(sspc.encode(bumps, None, store_normals=True))
     assert model.info()["normals"]
