@@ -3,7 +3,7 @@
 # float-cast-overflow: a float too large for the integer it is cast to).
 #
 #   scripts/fuzz.sh TARGET SECONDS     TARGET: ply_reader pcd_reader xyz_reader sspc_decoder
-#                                              encode_roundtrip render
+#                                              encode_roundtrip render tile_result
 #
 # Builds build-fuzz (clang, -fsanitize=fuzzer,address,undefined) when needed. The run works in
 # fuzz-work/TARGET/: corpus/ starts as a copy of fuzz/corpus/TARGET and keeps what the fuzzer
@@ -24,6 +24,7 @@ case "$target" in
   sspc_decoder) max_len=8192 timeout=10 ;;
   encode_roundtrip) max_len=6001 timeout=30 ;;  # 1 options byte + 2000 points of 3 bytes
   render) max_len=12288 timeout=20 ;;            # .sspc models and small clouds
+  tile_result) max_len=16384 timeout=20 ;;       # a selector byte and a tile job or result
   *)
     echo "fuzz.sh: unknown target '$target'" >&2
     exit 2

@@ -43,6 +43,14 @@ def test_tiled_encoder_jobs_run_anywhere_in_any_order(bunny, tmp_path):
         tiled.write(tmp_path / "c.sspc", results[:-1])
     with pytest.raises(ValueError, match="tile 0"):
         tiled.write(tmp_path / "c.sspc", [b"junk"] + results[1:])
+    # A mis-routed or replayed result names its tile and its job: refused for another tile, and
+    # a result of another plan (another level) refused for its own tile number.
+    with pytest.raises(ValueError, match="the result of tile 1 given for tile 0"):
+        tiled.write(tmp_path / "c.sspc", [results[1]] + results[1:])
+    other = sspc.TiledEncoder(bunny, tile_points=9000, level=5)
+    with pytest.raises(ValueError, match="another job"):
+        tiled.write(tmp_path / "c.sspc", [sspc.run_tile_job(other.job(0))] + results[1:])
+    assert not (tmp_path / "c.sspc").exists()
     with pytest.raises(RuntimeError):
         sspc.run_tile_job(b"SSPCTJ02" + b"\0" * 10)
 

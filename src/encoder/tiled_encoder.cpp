@@ -7,6 +7,7 @@
 #include <limits>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -38,6 +39,10 @@ struct TiledEncoder::Impl {
   NormalOptions normals;
   float margin = 0;
   double seconds_planning = 0;
+  // Each tile's job digest (codec::tile_job_digest), recorded when its job is made: a result
+  // must quote it. job() may be called from several threads (the Python bindings release the GIL).
+  mutable std::mutex digests_mutex;
+  mutable std::vector<std::optional<std::uint32_t>> digests;
 
   // Writing.
   std::optional<codec::ContainerStreamWriter> writer;
@@ -53,6 +58,9 @@ struct TiledEncoder::Impl {
 
   const codec::TilePlan& plan() const { return store->plan(); }
   Status measure();
+  StatusOr<std::string> job(std::size_t t) const;
+  StatusOr<std::uint32_t> job_digest(std::size_t t) const;
+  Status check_identity(std::size_t t, const codec::TileResult& tile) const;
   Status accept(std::size_t t, Result result);
   Status write_waiting();
   void stop_writing() {
@@ -98,6 +106,22 @@ Status TiledEncoder::Impl::measure() {
   const std::uint64_t total = store->input().points;
   // The patch size follows the whole model's points, as an untiled encode's does.
   build.level = build_options(options, total).level;
+  // A tile smaller than half a patch carries a margin (a patch radius and more) that holds many
+  // times its own points, and the encode's time explodes (docs/RESULTS.md, "Tile margins").
+  std::uint64_t tile_size = options.tile_points;
+  if (tile_size == 0) {
+    SSPC_ASSIGN_OR_RETURN(tile_size, tile_points_for_memory(options.memory_limit, total));
+  }
+  const auto least = static_cast<std::uint64_t>(build.level.patch_points) / 2;
+  if (tile_size < least) {
+    return invalid_argument((options.tile_points > 0 ? "tiles of " + std::to_string(tile_size) + " points"
+                                                     : "the memory limit's tiles of " + std::to_string(tile_size) +
+                                                           " points") +
+                            " are smaller than half a patch (" + std::to_string(build.level.patch_points) +
+                            " points at level " + std::to_string(options.level) +
+                            "): each tile carries a margin of a patch radius, which would hold many times its own "
+                            "points; use tiles of at least " + std::to_string(least) + " points");
+  }
 
   // A tile's own points, each with its distance to the tile's faces, one tile at a time.
   struct Own {
@@ -257,16 +281,63 @@ std::size_t TiledEncoder::tile_points(std::size_t t) const {
   return static_cast<std::size_t>(impl_->plan().points.at(t));
 }
 
-StatusOr<std::string> TiledEncoder::job(std::size_t t) const {
+StatusOr<std::string> TiledEncoder::Impl::job(std::size_t t) const {
+  if (t >= plan().size()) return invalid_argument("tiled encode: no tile " + std::to_string(t));
   codec::TileJob job;
-  SSPC_ASSIGN_OR_RETURN(job.part, impl_->store->load(t, impl_->margin));
+  job.tile = t;
+  SSPC_ASSIGN_OR_RETURN(job.part, store->load(t, margin));
   job.part.colours.clear();
   job.part.las.clear();
-  job.build = impl_->build;
-  job.build.core_points = static_cast<std::size_t>(impl_->plan().points[t]);
-  job.normals = impl_->normals;
-  return codec::serialise_tile_job(job);
+  job.build = build;
+  job.build.core_points = static_cast<std::size_t>(plan().points[t]);
+  job.normals = normals;
+  std::string bytes = codec::serialise_tile_job(job);
+  const std::uint32_t digest = codec::tile_job_digest(bytes);
+  const std::lock_guard lock(digests_mutex);
+  digests.resize(plan().size());
+  digests[t] = digest;
+  return bytes;
 }
+
+// The digest of tile t's job, made again when this encoder has not made the job (a result
+// kept from an earlier run of the same plan).
+StatusOr<std::uint32_t> TiledEncoder::Impl::job_digest(std::size_t t) const {
+  {
+    const std::lock_guard lock(digests_mutex);
+    if (t < digests.size() && digests[t]) return *digests[t];
+  }
+  SSPC_ASSIGN_OR_RETURN(const std::string bytes, job(t));
+  return codec::tile_job_digest(bytes);
+}
+
+// A result is tile t's when it names tile t, quotes the digest of tile t's job, carries the
+// plan's radius and spacing, and places its patches' centres in the tile (its own points, within
+// a patch radius of its box): anything else was mis-routed, replayed from another plan, or made
+// by another build.
+Status TiledEncoder::Impl::check_identity(std::size_t t, const codec::TileResult& tile) const {
+  if (tile.tile != t) {
+    return invalid_argument("the result of tile " + std::to_string(tile.tile) + " given for tile " + std::to_string(t));
+  }
+  SSPC_ASSIGN_OR_RETURN(const std::uint32_t digest, job_digest(t));
+  if (tile.job_digest != digest) {
+    return invalid_argument("the result is of another job for tile " + std::to_string(t) +
+                            " (another input, options or plan)");
+  }
+  if (tile.model.patch_radius != build.patch_radius || tile.model.spacing != static_cast<float>(build.spacing)) {
+    return invalid_argument("the result's patch radius or spacing is not the plan's");
+  }
+  const Box3f& box = plan().boxes[t];
+  const Vec3f reach = Vec3f::Constant(build.patch_radius);
+  const Box3f allowed(box.min() - reach, box.max() + reach);
+  for (const codec::PatchInstance& p : tile.model.patches) {
+    if (!allowed.contains(p.region_centre())) {
+      return invalid_argument("the result has a patch centred outside tile " + std::to_string(t));
+    }
+  }
+  return Status();
+}
+
+StatusOr<std::string> TiledEncoder::job(std::size_t t) const { return impl_->job(t); }
 
 namespace {
 
@@ -314,22 +385,24 @@ Status TiledEncoder::begin(const std::filesystem::path& output) {
 
 Status TiledEncoder::Impl::write_waiting() {
   for (auto it = waiting.find(next); it != waiting.end(); it = waiting.find(next)) {
+    const Result held = std::move(it->second);
+    waiting.erase(it);  // a bad result may be given again
     StatusOr<codec::TileResult> tile = internal_error("no result");
     std::string where = "tile " + std::to_string(next);
-    if (const auto* bytes = std::get_if<std::string>(&it->second)) {
-      tile = codec::parse_tile_result(*bytes);
+    const auto* path = std::get_if<std::filesystem::path>(&held);
+    if (path == nullptr) {
+      tile = codec::parse_tile_result(std::get<std::string>(held));
     } else {
-      const std::filesystem::path& path = std::get<std::filesystem::path>(it->second);
-      where = path.string();
-      auto file = MappedFile::open(path);
+      where = path->string();
+      auto file = MappedFile::open(*path);
       tile = file.ok() ? codec::parse_tile_result(view(*file)) : StatusOr<codec::TileResult>(file.status());
-      if (tile.ok()) {
-        std::error_code ignored;
-        std::filesystem::remove(path, ignored);
-      }
     }
-    waiting.erase(it);  // a bad result may be given again
     if (!tile.ok()) return invalid_argument(where + ": " + tile.status().message());
+    if (Status own = check_identity(next, *tile); !own.ok()) return invalid_argument(where + ": " + own.message());
+    if (path != nullptr) {
+      std::error_code ignored;
+      std::filesystem::remove(*path, ignored);
+    }
     patches += tile->model.patches.size();
     codewords += tile->model.codebook.size();
     build_stats.codebook.candidates_tested += tile->stats.codebook.candidates_tested;
@@ -420,7 +493,7 @@ StatusOr<std::uint64_t> tile_points_for_memory(std::uint64_t memory_limit_bytes,
 
 namespace {
 
-StatusOr<std::string> run_parsed_tile_job(codec::TileJob job) {
+StatusOr<std::string> run_parsed_tile_job(codec::TileJob job, std::uint32_t digest) {
   // The tile's points and then its margin's, each in the order sspc::encode takes a cloud's
   // points in (codec::point_order).
   const std::size_t core =
@@ -432,6 +505,8 @@ StatusOr<std::string> run_parsed_tile_job(codec::TileJob job) {
   job.part = job.part.select(order);
   if (!job.part.has_normals()) SSPC_RETURN_IF_ERROR(ensure_normals(job.part, job.normals));
   codec::TileResult result;
+  result.tile = job.tile;
+  result.job_digest = digest;
   SSPC_ASSIGN_OR_RETURN(result.model, codec::build_model(job.part, job.build, &result.stats));
   std::vector<Vec3f> origins;
   origins.reserve(result.model.patches.size());
@@ -451,7 +526,7 @@ void release_near_limit(std::uint64_t limit, std::uint64_t headroom) {
 
 StatusOr<std::string> run_tile_job(std::string_view bytes) {
   SSPC_ASSIGN_OR_RETURN(codec::TileJob job, codec::parse_tile_job(bytes));
-  return run_parsed_tile_job(std::move(job));
+  return run_parsed_tile_job(std::move(job), codec::tile_job_digest(bytes));
 }
 
 Status run_tile_job_file(const std::filesystem::path& job, const std::filesystem::path& result) {
@@ -469,12 +544,14 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
     // The job's bytes are freed once parsed, and its points once encoded, so that neither is
     // held while the result is added beside the model's growing records.
     StatusOr<codec::TileJob> job = internal_error("no job");
+    std::uint32_t digest = 0;
     {
       SSPC_ASSIGN_OR_RETURN(const std::string bytes, this->job(t));
       job = codec::parse_tile_job(bytes);
+      digest = codec::tile_job_digest(bytes);
     }
     if (!job.ok()) return job.status();
-    SSPC_ASSIGN_OR_RETURN(std::string result, run_parsed_tile_job(std::move(*job)));
+    SSPC_ASSIGN_OR_RETURN(std::string result, run_parsed_tile_job(std::move(*job), digest));
     const std::uint64_t limit = impl_->options.memory_limit;
     // add() parses the result and trims and writes the tiles it completes, their code books read
     // back from disk: at 1B points under 2 GiB it took up to 180 MB more while the process held
