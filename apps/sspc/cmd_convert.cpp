@@ -22,15 +22,11 @@ struct ConvertOptions {
 };
 
 // What a PLY output cannot hold of a LAS input, named so that nothing is lost silently.
-void warn_dropped(const PointCloud& cloud, const std::string& output,
+void warn_dropped_fields(const PointCloud& cloud, const std::string& output,
                   const std::string& extension) {
   if (format_from_extension("x" + extension) == PointCloudFormat::kLas) return;
   const std::string name = is_stdio(output) ? "stdout" : output;
-  std::string dropped = cloud.las.names();
-  if (!dropped.empty()) {
-    std::fprintf(stderr, "sspc: warning: %s: PLY output keeps positions and colours; dropped %s\n",
-                 name.c_str(), dropped.c_str());
-  }
+  cli::warn_dropped(output, "PLY output keeps positions and colours", cloud.las.names());
   if (!cloud.metadata.crs_records.empty() && cloud.metadata.crs_wkt.empty()) {
     std::fprintf(stderr,
                  "sspc: warning: %s: the CRS is GeoTIFF keys, which PLY cannot hold; dropped\n",
@@ -49,7 +45,7 @@ int run_convert(const ConvertOptions& o, const GlobalOptions& global) {
   auto cloud = read_cloud(o.input, read);
   if (!cloud.ok()) return report_failure(cloud.status());
   const std::string extension = cloud_extension(o.output, o.format);
-  warn_dropped(*cloud, o.output, extension);
+  warn_dropped_fields(*cloud, o.output, extension);
   PlyWriteOptions ply;
   ply.encoding = o.ascii ? PlyEncoding::kAscii : PlyEncoding::kBinaryLittleEndian;
   const Status written = write_output(o.output, extension, [&](const std::filesystem::path& path) {

@@ -10,6 +10,7 @@
 
 #include "command.hpp"
 #include "sspc/compressed_model.hpp"
+#include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
 
 namespace sspc::cli {
@@ -45,6 +46,29 @@ std::optional<Box3f> parse_box(const std::string& text) {
   return Box3f(*lo, *hi);
 }
 
+// The model's per-point attributes that the output will not hold: all of them with --overlap
+// (whose stored points of several patches have no attributes of their own), those PLY has no
+// property for otherwise. A LAS output writes a dropped field as 0, which a reader cannot tell
+// from a stored 0, so it is named.
+void warn_unwritten(const ModelInfo& m, const DecodeCliOptions& o, bool to_las) {
+  std::string dropped;
+  auto add = [&dropped](bool present, const char* name) {
+    if (!present) return;
+    if (!dropped.empty()) dropped += ", ";
+    dropped += name;
+  };
+  add(o.overlap && (m.attributes & kAttributeColour) != 0, "colours");
+  add((m.attributes & kAttributeIntensity) != 0, "intensity");
+  add((m.attributes & kAttributeClassification) != 0, "classification");
+  add((m.attributes & kAttributeReturns) != 0, "returns");
+  if (o.overlap) {
+    warn_dropped(o.output, std::string("--overlap decodes positions only") + (to_las ? " (LAS writes 0 for each)" : ""),
+                 dropped);
+  } else if (!to_las) {
+    warn_dropped(o.output, "PLY output keeps positions and colours", dropped);
+  }
+}
+
 int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
   if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
   if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
@@ -64,6 +88,7 @@ int run_decode(const DecodeCliOptions& o, const GlobalOptions& global) {
                          (is_stdio(o.input) ? std::string(kStdinName)
                                             : std::filesystem::path(o.input).filename().string()));
   const std::string extension = cloud_extension(o.output, o.format);
+  warn_unwritten(model->info(), o, format_from_extension("decoded" + extension) == PointCloudFormat::kLas);
   std::uint64_t points = 0;
   double decode_seconds = 0;
   const auto since_start = [&] {
@@ -150,7 +175,14 @@ Command add_decode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_option("--patch", o->patch,
                   "Only patch K (its region, or all its stored points with --overlap)")
       ->type_name("K")
-      ->check(CLI::Validator(CLI::NonNegativeNumber).description(""))
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            // Checked before CLI11 converts it, which clamps a number past 2^63 to 2^63 − 1.
+            const bool digits = !text.empty() && text.size() <= 18 &&
+                                text.find_first_not_of("0123456789") == std::string::npos;
+            return digits ? std::string() : "'" + text + "' is not a patch index (a whole number below 10^18)";
+          },
+          ""))
       ->excludes(box);
   app->add_flag("--overlap", o->overlap,
                 "Keep every stored point of every patch, no region test (whole spheres for files "

@@ -38,7 +38,7 @@ struct EncodeCliOptions {
   int colour_quality = EncodeOptions().colour_quality;
   int intensity_step = 1;
   std::uint64_t tile_points = 0;
-  std::string memory_limit;
+  std::optional<std::string> memory_limit;  // given, even as '', is parsed
   bool force = false;
   bool json = false;
 };
@@ -99,6 +99,12 @@ int encode_stages(const PointCloud& cloud, NormalMode mode) {
 
 int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
+  if (!is_stdio(o.output) && format_from_extension(o.output) != PointCloudFormat::kAuto) {
+    // Every reader would take the model for a point cloud of that format and refuse it.
+    return report_usage_error(invalid_argument(o.output + ": a compressed model under a point-cloud extension ('" +
+                                               std::filesystem::path(o.output).extension().string() +
+                                               "'); name it .sspc"));
+  }
   if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto progress = make_progress(global);
@@ -124,8 +130,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   options.normals.mode = o.normals;
   options.normals.viewpoint = parse_vec3(o.viewpoint);
   options.progress = progress.get();
-  if (!o.memory_limit.empty()) {
-    auto limit = parse_size(o.memory_limit);
+  if (o.memory_limit) {
+    auto limit = parse_size(*o.memory_limit);
     if (!limit.ok()) return report_usage_error(limit.status());
     if (is_stdio(o.input)) {
       return report_usage_error(invalid_argument("--memory-limit reads its input in passes: give a file, not stdin"));

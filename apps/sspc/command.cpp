@@ -225,6 +225,12 @@ std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global) {
   return std::make_unique<TerminalProgress>(stderr);
 }
 
+void warn_dropped(const std::string& output, const std::string& kept, const std::string& dropped) {
+  if (dropped.empty()) return;
+  std::fprintf(stderr, "sspc: warning: %s: %s; dropped %s\n", is_stdio(output) ? "stdout" : output.c_str(),
+               kept.c_str(), dropped.c_str());
+}
+
 void print_line(const std::string& text) {
   std::fwrite(text.data(), 1, text.size(), stdout);
   std::fputc('\n', stdout);

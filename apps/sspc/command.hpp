@@ -110,6 +110,10 @@ StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options);
 // A progress reporter that draws on stderr only when it is a terminal and --quiet is off.
 std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);
 
+// "sspc: warning: OUT: <kept>; dropped <dropped>" on stderr ("stdout" for "-"), unless
+// `dropped` is empty: what an output cannot hold is never lost silently.
+void warn_dropped(const std::string& output, const std::string& kept, const std::string& dropped);
+
 // Prints `text` and a newline to stdout.
 void print_line(const std::string& text);
 

@@ -8,6 +8,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <memory>
@@ -144,7 +145,15 @@ int main(int argc, char** argv) {
       if (json != nullptr && json->count() > 0)
         report_errors_as_json(command.app->get_name(), files_named(*command.app));
       const int code = command.run();
-      std::fflush(stdout);
+      // What a command printed (a report, --json) is its output: a stdout that cannot take it
+      // (a full disk, /dev/full, a closed file) fails the command, as a file output would.
+      errno = 0;
+      if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+        const int error = errno;
+        std::fprintf(stderr, "sspc: error: stdout: %s; the output was not written whole\n",
+                     error != 0 ? std::strerror(error) : "write error");
+        return code == kExitOk ? kExitFailure : code;
+      }
       return code;
     }
   }

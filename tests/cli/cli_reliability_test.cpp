@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <zlib.h>
 
 #include <cstdint>
@@ -123,11 +124,33 @@ TEST(CliReliability, MalformedValuesAreUsageErrors) {
         "render " + bunny() + png + " --orbit 2 --camera-path " + bunny(), "encode " + bunny() + model + " --epsilon nan",
         "encode " + bunny() + model + " --tau nan", "encode " + bunny() + model + " --epsilon 1e30",
         "encode " + bunny() + model + " --tau 0", "encode " + bunny() + model + " --memory-limit 2X",
-        "encode " + bunny() + model + " --memory-limit -1G", "encode - " + model + " --memory-limit 1G"}) {
+        "encode " + bunny() + model + " --memory-limit -1G", "encode - " + model + " --memory-limit 1G",
+        "encode " + bunny() + model + " --memory-limit ''", "encode " + bunny() + model + " --memory-limit ' '",
+        "encode " + bunny() + " " + (dir.path() / "model.ply").string(),
+        "encode " + bunny() + " " + (dir.path() / "model.las").string(),
+        "decode " + model + " " + (dir.path() / "o.ply").string() + " --patch 99999999999999999999",
+        "decode " + model + " " + (dir.path() / "o.ply").string() + " --patch -1"}) {
     const CliRun run = sspc(dir, args);
     EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.err;
   }
   EXPECT_EQ(test::count_files(dir.path()), 2u) << "only stdout.txt and stderr.txt";
+}
+
+// What a command prints on stdout is its output: a stdout that cannot take it (a full disk) fails
+// the command with exit 1, whether the report is text or --json.
+TEST(CliReliability, AReportToAFullStdoutFails) {
+  test::TempDir dir;
+  const std::string model = (dir.path() / "b.sspc").string();
+  ASSERT_EQ(sspc(dir, "encode -q -l 9 " + bunny() + " " + model).exit_code, 0);
+  const std::string err = (dir.path() / "err.txt").string();
+  for (const std::string& args : {"info " + model, "info --json " + model, "verify " + model, "info " + bunny(),
+                                  "eval " + bunny() + " " + bunny(), "verify --json " + model}) {
+    const std::string command = std::string(SSPC_CLI_PATH) + " " + args + " >/dev/full 2>" + err + " </dev/null";
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << args;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << args;
+    EXPECT_NE(slurp(err).find("stdout: No space left on device"), std::string::npos) << args << ": " << slurp(err);
+  }
 }
 
 // Every output is checked before anything is written: not an input (even with --force), not a

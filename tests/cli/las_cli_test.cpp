@@ -90,6 +90,25 @@ TEST(CliLas, DroppedFieldsAreNamedAndLazIsRefusedWithTheWayOut) {
     EXPECT_EQ(back->las.classification[i], cloud.las.classification[s]) << i;
   }
 
+  // A decode names what its output cannot hold: PLY has no property for intensity or
+  // classification, and --overlap decodes positions only (LAS would write 0 for each field).
+  const std::string model = (dir.path() / "o.sspc").string();
+  const CliRun to_ply = sspc(dir, "decode -q " + model + " " + (dir.path() / "back.ply").string());
+  ASSERT_EQ(to_ply.exit_code, 0) << to_ply.err;
+  EXPECT_NE(to_ply.err.find("back.ply: PLY output keeps positions and colours; dropped intensity, classification"),
+            std::string::npos)
+      << to_ply.err;
+  const CliRun to_stdout = sspc(dir, "decode -q " + model + " - --format ply");
+  EXPECT_NE(to_stdout.err.find("stdout: PLY output keeps positions and colours; dropped intensity"), std::string::npos)
+      << to_stdout.err;
+  const CliRun overlap = sspc(dir, "decode -q --overlap " + model + " " + (dir.path() / "o.las").string());
+  ASSERT_EQ(overlap.exit_code, 0) << overlap.err;
+  EXPECT_NE(overlap.err.find("--overlap decodes positions only (LAS writes 0 for each); dropped intensity, classification"),
+            std::string::npos)
+      << overlap.err;
+  const CliRun plain = sspc(dir, "decode -q " + (dir.path() / "n.sspc").string() + " " + (dir.path() / "n.ply").string());
+  EXPECT_EQ(plain.err.find("dropped"), std::string::npos) << "nothing kept, nothing to name: " << plain.err;
+
   std::string bytes = slurp(las);
   bytes[104] = static_cast<char>(bytes[104] | 0x80);  // LASzip's compressed bit
   test::write_bytes(dir.path() / "in.laz", bytes);
