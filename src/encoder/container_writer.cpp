@@ -158,6 +158,10 @@ Status validate(const EncodedModel& model, const QuantOptions& o) {
       (!model.bounds.min().allFinite() || !model.bounds.max().allFinite())) {
     return invalid_argument("the model's bounds are not finite");
   }
+  if (const Vec3d& origin = model.metadata.origin;
+      !origin.allFinite() || (origin.array().abs() > kMaxCoordinate).any()) {
+    return invalid_argument("the model's origin is not finite or beyond +-1e18 (a reader refuses it)");
+  }
   for (std::size_t c = 0; c < model.codebook.size(); ++c) {
     const Codeword& w = model.codebook[c];
     const std::string where = "code word " + std::to_string(c);

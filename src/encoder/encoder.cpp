@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "core/format_number.hpp"
 #include "core/stopwatch.hpp"
 #include "encoder/container_writer.hpp"
 #include "encoder/levels.hpp"
@@ -77,13 +78,13 @@ Status check_options(const EncodeOptions& o) {
                             std::to_string(*o.patch_points));
   }
   if (o.epsilon && !(*o.epsilon > 0 && *o.epsilon <= 1e3f)) {
-    return invalid_argument("epsilon must be in (0, 1000], got " + std::to_string(*o.epsilon));
+    return invalid_argument("epsilon must be in (0, 1000], got " + format_number(double{*o.epsilon}));
   }
   if (o.tau && !(*o.tau > 0 && *o.tau <= 1e3f)) {
-    return invalid_argument("tau must be in (0, 1000] spacings, got " + std::to_string(*o.tau));
+    return invalid_argument("tau must be in (0, 1000] spacings, got " + format_number(double{*o.tau}));
   }
   if (o.step && !(*o.step > 0 && *o.step <= 1e3f)) {
-    return invalid_argument("step must be in (0, 1000] spacings, got " + std::to_string(*o.step));
+    return invalid_argument("step must be in (0, 1000] spacings, got " + format_number(double{*o.step}));
   }
   if (o.position_bits && (*o.position_bits < 4 || *o.position_bits > 16)) {
     return invalid_argument("position bits must be 4..16, got " + std::to_string(*o.position_bits));

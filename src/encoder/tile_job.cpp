@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "core/byte_reader.hpp"
+#include "core/format_number.hpp"
 #include "format/checksum.hpp"
 #include "sspc/encoder.hpp"
 
@@ -68,7 +69,7 @@ Status check_job(const TileJob& job) {
     return corrupt("tile job: spacing and patch radius must be finite and positive");
   }
   if (radius < b.spacing / 16 || radius > b.spacing * 65536) {
-    return corrupt("tile job: a patch radius of " + std::to_string(radius / b.spacing) + " spacings (1/16 to 65536)");
+    return corrupt("tile job: a patch radius of " + format_number(radius / b.spacing) + " spacings (1/16 to 65536)");
   }
   const Box3f box = job.part.bounding_box();
   const double extent = box.isEmpty() ? 0.0 : (box.max().cast<double>() - box.min().cast<double>()).norm();

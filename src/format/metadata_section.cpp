@@ -2,11 +2,13 @@
 
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "core/byte_reader.hpp"
 #include "core/varint.hpp"
 #include "format/checksum.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::codec {
 
@@ -24,6 +26,12 @@ void put_vec3d(std::string& out, const Vec3d& v) {
   for (int k = 0; k < 3; ++k) put<double>(out, v[k]);
 }
 
+std::string format_vec3(const Vec3d& v) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.6g, %.6g, %.6g)", v.x(), v.y(), v.z());
+  return text;
+}
+
 void put_text(std::string& out, const std::string& text) {
   append_varint(out, text.size());
   out += text;
@@ -39,6 +47,12 @@ class PayloadReader {
   StatusOr<ModelMetadata> read() {
     ModelMetadata m;
     SSPC_RETURN_IF_ERROR(read_vec3(m.origin, false, "origin"));
+    // A world coordinate is origin + a float32 position: past kMaxCoordinate a box query's world
+    // to local conversion leaves float's range (an origin of 1e308 verified, and then every box
+    // decode failed).
+    if ((m.origin.array().abs() > kMaxCoordinate).any()) {
+      return fail(r_.offset() - 24, "origin " + format_vec3(m.origin) + " beyond +-1e18");
+    }
     SSPC_ASSIGN_OR_RETURN(const auto has_las, read<std::uint8_t>());
     if (has_las > 1) return fail(r_.offset() - 1, "has_las is " + std::to_string(has_las));
     if (has_las == 1) {

@@ -1,5 +1,7 @@
 #include "sspc/point_cloud.hpp"
 
+#include "sspc/neighbours.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -159,7 +161,9 @@ std::string LasPointAttributes::names() const {
 }
 
 Status PointCloud::validate() const {
-  if (!origin.allFinite()) return invalid_argument("point cloud has a non-finite origin");
+  if (!origin.allFinite() || (origin.array().abs() > kMaxCoordinate).any()) {
+    return invalid_argument("point cloud has an origin that is not finite or beyond +-1e18");
+  }
   std::string wrong;
   const std::size_t n = positions.size();
   check_size(las.intensity, n, "intensity", wrong);

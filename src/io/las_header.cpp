@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/byte_reader.hpp"
+#include "core/format_number.hpp"
 #include "io/las_format.hpp"
 #include "io/reader_common.hpp"
 
@@ -106,7 +107,7 @@ class HeaderParser {
       if (!(std::abs(s.scale[k]) >= 1e-30 && std::abs(s.scale[k]) <= 1e30)) {
         return error_at_offset(StatusCode::kUnsupported, name_,
                                las::kOffScale + 8 * static_cast<std::size_t>(k),
-                               "scale factor " + std::to_string(s.scale[k]) +
+                               "scale factor " + format_number(s.scale[k]) +
                                    " is outside 1e-30 to 1e30 in magnitude");
       }
       if (!std::isfinite(s.offset[k])) {
@@ -228,6 +229,11 @@ class HeaderParser {
     // The point records end before the EVLRs, or the waveform data, when there are any.
     std::uint64_t limit = data_.size();
     if (evlr_count_ != 0) limit = std::min<std::uint64_t>(limit, evlr_start_);
+    if (h_.source.version_minor >= 3) {
+      // Internal waveform data packets (LAS 1.3's formats 4 and 5) follow the points too.
+      const auto waveform = at<std::uint64_t>(data_, las::kOffWaveformStart);
+      if (waveform > h_.point_data_offset) limit = std::min<std::uint64_t>(limit, waveform);
+    }
     const std::uint64_t room = limit >= h_.point_data_offset ? limit - h_.point_data_offset : 0;
     if (h_.point_count > room / h_.record_length) {
       return fail(static_cast<std::size_t>(std::min<std::uint64_t>(limit, data_.size())),
@@ -236,6 +242,15 @@ class HeaderParser {
                       std::to_string(h_.point_data_offset) + " but only " +
                       std::to_string(room / h_.record_length) + " fit before byte " +
                       std::to_string(limit));
+    }
+    // More whole records than the header counts: the count is wrong, and reading it would drop
+    // points silently (the PLY reader refuses the same lie).
+    if (room / h_.record_length > h_.point_count) {
+      return fail(las::kOffLegacyCount, "the header counts " + std::to_string(h_.point_count) +
+                                            " points, but the point data holds " +
+                                            std::to_string(room / h_.record_length) + " records of " +
+                                            std::to_string(h_.record_length) + " bytes before byte " +
+                                            std::to_string(limit));
     }
     return Status();
   }

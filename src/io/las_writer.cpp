@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <limits>
 
 #include "core/atomic_file.hpp"
@@ -83,12 +85,11 @@ StatusOr<LasEncoder> LasEncoder::make(const PointCloud& cloud, const LasWriteOpt
   if (e.extra_ != 0) {
     for (const LasRecord& r : m.extra_bytes_records) e.records_.push_back(r);
   }
-  for (const LasRecord& r : e.records_) {
-    if (r.data.size() > std::numeric_limits<std::uint16_t>::max()) {
-      return invalid_argument("variable-length record '" + r.user_id + "' " +
-                              std::to_string(r.record_id) + " is longer than 65535 bytes");
-    }
-  }
+  // A record longer than a VLR holds goes after the points as an EVLR, which needs LAS 1.4.
+  const auto too_long = [](const LasRecord& r) { return r.data.size() > std::numeric_limits<std::uint16_t>::max(); };
+  std::copy_if(e.records_.begin(), e.records_.end(), std::back_inserter(e.extended_), too_long);
+  std::erase_if(e.records_, too_long);
+  if (!e.extended_.empty()) e.minor_ = 4;
   return e;
 }
 
@@ -164,17 +165,25 @@ Status LasEncoder::choose_grid(const LasWriteOptions& options) {
     }
     return true;
   };
-  offset_ = c.metadata.las && !options.scale ? c.metadata.las->offset : Vec3d::Zero();
-  if (!fits(offset_)) {
+  const auto centred = [&] {
     const Vec3d centre = box.isEmpty() ? Vec3d(Vec3d::Zero()) : Vec3d(box.center().cast<double>());
-    for (int k = 0; k < 3; ++k) {
-      offset_[k] = c.origin[k] + centre[k];
-      offset_[k] = std::round(offset_[k] / scale_[k]) * scale_[k];
-    }
-    if (!fits(offset_)) {
-      return invalid_argument("the cloud spans more than LAS's 32-bit integers hold at scale " +
-                              std::to_string(scale_.minCoeff()));
-    }
+    Vec3d offset;
+    for (int k = 0; k < 3; ++k) offset[k] = std::round((c.origin[k] + centre[k]) / scale_[k]) * scale_[k];
+    return offset;
+  };
+  offset_ = c.metadata.las && !options.scale ? c.metadata.las->offset : Vec3d::Zero();
+  if (!fits(offset_)) offset_ = centred();
+  if (!fits(offset_) && c.metadata.las && !options.scale) {
+    // A decoded or edited cloud may span more than its source's grid holds (a source scale of
+    // 1e-30 spans 2e-21 units): the writer's own scale then, rather than no file.
+    scale_ = Vec3d::Constant(default_scale(extent));
+    offset_ = centred();
+  }
+  if (!fits(offset_)) {
+    char text[160];
+    std::snprintf(text, sizeof text, "the cloud spans more than LAS's 32-bit integers hold at scale %g",
+                  scale_.minCoeff());
+    return invalid_argument(text);
   }
   anchor_ = (c.origin - offset_).cwiseQuotient(scale_);
   integers_.resize(c.size());
@@ -243,8 +252,9 @@ std::string LasEncoder::header() const {
   }
   if (minor_ >= 3) put<std::uint64_t>(h, 0);  // no waveform data packets
   if (minor_ >= 4) {
-    put<std::uint64_t>(h, 0);  // no EVLRs
-    put<std::uint32_t>(h, 0);
+    const std::uint64_t points_end = header_size + vlr_bytes + n * record_length_;
+    put<std::uint64_t>(h, extended_.empty() ? 0 : points_end);
+    put<std::uint32_t>(h, static_cast<std::uint32_t>(extended_.size()));
     put<std::uint64_t>(h, n);
     for (std::uint64_t count : by_return_) put<std::uint64_t>(h, count);
   }
@@ -259,6 +269,19 @@ std::string LasEncoder::header() const {
   return h;
 }
 
+std::string LasEncoder::trailer() const {
+  std::string t;
+  for (const LasRecord& r : extended_) {
+    put<std::uint16_t>(t, 0);
+    put_fixed(t, r.user_id, 16);
+    put<std::uint16_t>(t, r.record_id);
+    put<std::uint64_t>(t, r.data.size());
+    put_fixed(t, r.description, 32);
+    t += r.data;
+  }
+  return t;
+}
+
 void LasEncoder::append_record(std::size_t i, std::byte* r) const {
   const PointCloud& c = *cloud_;
   const LasPointAttributes& a = c.las;
@@ -270,13 +293,16 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
   const unsigned cls = value_or<std::uint8_t>(a.classification, i, 0);
   const unsigned cls_flags = value_or<std::uint8_t>(a.classification_flags, i, 0);
   const unsigned scan = value_or<std::uint8_t>(a.scan_flags, i, 0);
-  const double angle = static_cast<double>(value_or<float>(a.scan_angle, i, 0.0f));
+  // The stored integer's whole range (the specification asks for ±90° in both forms, but a file
+  // outside it still passes through unchanged); NaN as 0.
+  double angle = static_cast<double>(value_or<float>(a.scan_angle, i, 0.0f));
+  if (!std::isfinite(angle)) angle = 0;
   if (!l.extended) {
     r[14] = std::byte(
         static_cast<std::uint8_t>((ret & 7u) | ((returns & 7u) << 3) | ((scan & 3u) << 6)));
     r[15] = std::byte(static_cast<std::uint8_t>((cls & 31u) | ((cls_flags & 7u) << 5)));
     store<std::int8_t>(r + 16,
-                       static_cast<std::int8_t>(std::clamp(std::round(angle), -90.0, 90.0)));
+                       static_cast<std::int8_t>(std::clamp(std::round(angle), -128.0, 127.0)));
     r[17] = std::byte(value_or<std::uint8_t>(a.user_data, i, 0));
     store<std::uint16_t>(r + 18, value_or<std::uint16_t>(a.point_source_id, i, 0));
   } else {
@@ -286,7 +312,7 @@ void LasEncoder::append_record(std::size_t i, std::byte* r) const {
     r[16] = std::byte(static_cast<std::uint8_t>(cls));
     r[17] = std::byte(value_or<std::uint8_t>(a.user_data, i, 0));
     store<std::int16_t>(r + 18, static_cast<std::int16_t>(
-                                    std::clamp(std::round(angle / 0.006), -30000.0, 30000.0)));
+                                    std::clamp(std::round(angle / 0.006), -32768.0, 32767.0)));
     store<std::uint16_t>(r + 20, value_or<std::uint16_t>(a.point_source_id, i, 0));
   }
   if (l.gps >= 0) store<double>(r + l.gps, value_or<double>(a.gps_time, i, 0.0));
@@ -325,6 +351,7 @@ StatusOr<std::string> encode_las(const PointCloud& cloud, const LasWriteOptions&
   SSPC_ASSIGN_OR_RETURN(const io::LasEncoder encoder, io::LasEncoder::make(cloud, options));
   std::string out = encoder.header();
   encoder.append_points(0, cloud.size(), out);
+  out += encoder.trailer();
   return out;
 }
 
@@ -343,6 +370,7 @@ Status write_las(const PointCloud& cloud, const std::filesystem::path& path,
     encoder->append_points(begin, std::min(cloud.size(), begin + kChunk), buffer);
     SSPC_RETURN_IF_ERROR(file.write(buffer));
   }
+  SSPC_RETURN_IF_ERROR(file.write(encoder->trailer()));
   return file.commit();
 }
 

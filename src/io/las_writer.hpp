@@ -23,6 +23,9 @@ class LasEncoder {
   std::string header() const;
   // Appends the point records [begin, end) to `out`.
   void append_points(std::size_t begin, std::size_t end, std::string& out) const;
+  // What follows the points: the extended variable-length records (LAS 1.4, §2.7), for records
+  // longer than a VLR's 65,535 bytes (a WKT2 CRS can be). Empty for most files.
+  std::string trailer() const;
 
   int point_format() const { return format_; }
   int version_minor() const { return minor_; }
@@ -45,6 +48,7 @@ class LasEncoder {
   Vec3d world_min_ = Vec3d::Zero(), world_max_ = Vec3d::Zero();
   std::array<std::uint64_t, 15> by_return_{};
   std::vector<LasRecord> records_;
+  std::vector<LasRecord> extended_;  // longer than 65,535 bytes: EVLRs
   bool wkt_ = false;
 };
 

@@ -7,9 +7,11 @@
 
 #include <gtest/gtest.h>
 
+#include "core/format_number.hpp"
 #include "double_cloud_files.hpp"
 #include "encoder/container_writer.hpp"
 #include "format/container_test_models.hpp"
+#include "format/metadata_section.hpp"
 #include "sspc/compressed_model.hpp"
 #include "sspc/encoder.hpp"
 #include "sspc/io.hpp"
@@ -92,6 +94,30 @@ TEST(Georeference, EveryTruncationOrBitFlipOfTheMetadataIsAnError) {
     ASSERT_FALSE(CompressedModel::from_bytes(bad).ok()) << at;
   }
   EXPECT_FALSE(CompressedModel::from_bytes(bytes + std::string(1, '\0')).ok());
+}
+
+// An origin past kMaxCoordinate verified and then failed every box query (its world to local
+// conversion leaves float's range): the reader refuses it, naming the value, and the writer does
+// not write it.
+TEST(Georeference, AnOriginBeyondTheCoordinateLimitIsRefused) {
+  for (const double far : {1e308, -1e308, 2e18}) {
+    codec::ModelMetadata metadata;
+    metadata.origin = Vec3d(0, far, 0);
+    const std::string part = codec::encode_metadata(metadata);
+    const auto decoded = codec::decode_metadata(std::as_bytes(std::span(part.data(), part.size())), 100, "far.sspc");
+    ASSERT_FALSE(decoded.ok()) << far;
+    EXPECT_EQ(decoded.status().code(), StatusCode::kCorrupt);
+    EXPECT_NE(decoded.status().message().find("origin (0, " + format_number(far) + ", 0) beyond +-1e18"),
+              std::string::npos)
+        << decoded.status().message();
+    codec::EncodedModel m = test::make_plane_model({});
+    m.metadata.origin = metadata.origin;
+    EXPECT_FALSE(codec::encode_container(m, {}).ok()) << far;
+  }
+  codec::ModelMetadata near;
+  near.origin = Vec3d(1e18, -1e18, 6.4e6);
+  const std::string part = codec::encode_metadata(near);
+  EXPECT_TRUE(codec::decode_metadata(std::as_bytes(std::span(part.data(), part.size())), 100, "near.sspc").ok());
 }
 
 // The bunny scaled to 150 m, as a double PLY at (0, 0, 0) and at (500000, 4500000, 100).

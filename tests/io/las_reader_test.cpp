@@ -163,7 +163,14 @@ TEST(LasReader, RefusesHeadersThatDoNotAddUp) {
   std::string tiny_scale = las;
   const double tiny = 1e-287;
   std::memcpy(tiny_scale.data() + 131, &tiny, sizeof tiny);
-  EXPECT_NE(message(tiny_scale).find("is outside 1e-30 to 1e30"), std::string::npos);
+  EXPECT_NE(message(tiny_scale).find("scale factor 1e-287 is outside 1e-30 to 1e30"), std::string::npos)
+      << "six digits, not std::to_string's 0.000000";
+  // A header that counts fewer points than the file holds: reading it would drop the rest.
+  EXPECT_NE(message(with_byte(las, 107, 3)).find("the header counts 3 points, but the point data holds 4 records"),
+            std::string::npos)
+      << message(with_byte(las, 107, 3));
+  // Fewer bytes than a record after the last one are not a record (padding is read as before).
+  EXPECT_TRUE(read_las(test::bytes_of(las + std::string(7, '\0')), "padded.las").ok());
 }
 
 }  // namespace

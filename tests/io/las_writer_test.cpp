@@ -1,6 +1,7 @@
 // write_las: a LAS file read and written again gives back its point records byte for byte;
 // every point format keeps every field; the origin, the CRS and the extra bytes survive; a cloud
 // from another format is stored on a grid that float32 returns exactly.
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -114,6 +115,77 @@ TEST(LasWriter, CrsAndExtraBytesSurvive) {
   EXPECT_EQ(back->metadata.crs_wkt, cloud->metadata.crs_wkt);
   EXPECT_EQ(back->las.extra_bytes, cloud->las.extra_bytes);
   EXPECT_EQ(back->metadata.extra_bytes_records.size(), 1u);
+}
+
+// A record longer than a VLR's 65,535 bytes (a WKT2 CRS can be) goes after the points as an
+// EVLR of LAS 1.4, and comes back; a 65,535-byte CRS (65,536 with its NUL) likewise.
+TEST(LasWriter, LongCrsRecordsBecomeEvlrsAndComeBack) {
+  StatusOr<PointCloud> cloud = read_bytes(test::hand_las12(1, test::hand_points(30), 0.01, 0, 0, 0));
+  ASSERT_TRUE(cloud.ok());
+  for (const std::size_t length : {std::size_t{65534}, std::size_t{65535}, std::size_t{1} << 20}) {
+    cloud->metadata.crs_wkt = "PROJCS[\"long\"," + std::string(length - 15, 'x') + "]";
+    ASSERT_EQ(cloud->metadata.crs_wkt.size(), length);
+    const StatusOr<std::string> bytes = encode_las(*cloud);
+    ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+    EXPECT_EQ(static_cast<int>((*bytes)[25]), 4);
+    std::uint32_t evlrs = 0;
+    std::memcpy(&evlrs, bytes->data() + 243, 4);
+    EXPECT_EQ(evlrs, length >= 65535 ? 1u : 0u) << length;
+    const StatusOr<PointCloud> back = read_bytes(*bytes);
+    ASSERT_TRUE(back.ok()) << back.status().to_string();
+    EXPECT_EQ(back->metadata.crs_wkt, cloud->metadata.crs_wkt) << length;
+    ASSERT_EQ(back->size(), cloud->size());
+    for (std::size_t i = 0; i < cloud->size(); ++i) ASSERT_EQ(back->world(i), cloud->world(i)) << i;
+  }
+}
+
+// Every stored scan angle passes through, those outside the specification's ±90° included.
+TEST(LasWriter, ScanAnglesAtTheirExtremesPassThrough) {
+  StatusOr<PointCloud> cloud = read_bytes(test::hand_las12(1, test::hand_points(6), 0.01, 0, 0, 0));
+  ASSERT_TRUE(cloud.ok());
+  cloud->las.scan_angle = {-128.0f, 127.0f, -91.0f, 91.0f, 0.0f, 90.0f};
+  StatusOr<std::string> bytes = encode_las(*cloud);
+  ASSERT_TRUE(bytes.ok());
+  StatusOr<PointCloud> back = read_bytes(*bytes);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->las.scan_angle, cloud->las.scan_angle);
+  // Formats 6-10: steps of 0.006°, the int16's whole range.
+  LasWriteOptions six;
+  six.point_format = 6;
+  cloud->las.scan_angle = {-32768 * 0.006f, 32767 * 0.006f, -30001 * 0.006f, 30001 * 0.006f, 0.0f, 0.006f};
+  bytes = encode_las(*cloud, six);
+  ASSERT_TRUE(bytes.ok());
+  back = read_bytes(*bytes);
+  ASSERT_TRUE(back.ok());
+  const StatusOr<std::string> again = encode_las(*back, six);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(records_of(*again) == records_of(*bytes));
+  for (std::size_t i = 0; i < 6; ++i) {
+    std::int16_t stored = 0;
+    std::memcpy(&stored, records_of(*bytes).data() + 30 * i + 18, 2);
+    EXPECT_EQ(stored, static_cast<std::int16_t>(std::lround(cloud->las.scan_angle[i] / 0.006f))) << i;
+  }
+}
+
+// A source grid that cannot hold the cloud (a decode spans a little more than its source; a
+// scale of 1e-30 spans 2e-21 units) gives way to the writer's own, rather than no file.
+TEST(LasWriter, ASourceScaleTooFineForTheCloudGivesWay) {
+  StatusOr<PointCloud> cloud = read_bytes(test::hand_las12(1, test::hand_points(30), 0.01, 0, 0, 0));
+  ASSERT_TRUE(cloud.ok());
+  cloud->metadata.las->scale = Vec3d::Constant(1e-30);
+  const StatusOr<std::string> bytes = encode_las(*cloud);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+  const StatusOr<PointCloud> back = read_bytes(*bytes);
+  ASSERT_TRUE(back.ok());
+  for (std::size_t i = 0; i < cloud->size(); ++i) {
+    EXPECT_LT((back->world(i) - cloud->world(i)).norm(), 1e-5) << i;
+  }
+  // An explicit scale is kept, and its refusal reads as a number.
+  LasWriteOptions fine;
+  fine.scale = Vec3d::Constant(1e-30);
+  const StatusOr<std::string> refused = encode_las(*cloud, fine);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("at scale 1e-30"), std::string::npos) << refused.status().message();
 }
 
 TEST(LasWriter, CloudsFromOtherFormatsComeBackFromTheirOwnGrid) {
