@@ -99,13 +99,13 @@ int encode_stages(const PointCloud& cloud, NormalMode mode) {
 
 int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
+  if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   if (!is_stdio(o.output) && format_from_extension(o.output) != PointCloudFormat::kAuto) {
     // Every reader would take the model for a point cloud of that format and refuse it.
     return report_usage_error(invalid_argument(o.output + ": a compressed model under a point-cloud extension ('" +
                                                std::filesystem::path(o.output).extension().string() +
                                                "'); name it .sspc"));
   }
-  if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
   const auto start = std::chrono::steady_clock::now();
   auto progress = make_progress(global);
   // With --normals auto the count depends on the file: unknown until it is read.

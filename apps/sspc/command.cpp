@@ -252,6 +252,23 @@ const char* node_kind(const std::filesystem::file_status& status) {
 
 }  // namespace
 
+namespace {
+
+// What runs killed beyond a handler's reach (SIGKILL) left beside an output: removed when their
+// owner is gone, named when sspc cannot tell.
+void report_stale_temporaries(const std::filesystem::path& dir) {
+  const StaleTemporaries stale = remove_stale_temporaries(dir);
+  for (const auto& path : stale.removed) {
+    std::fprintf(stderr, "sspc: note: removed %s, left by an interrupted run\n", path.c_str());
+  }
+  for (const auto& path : stale.unknown) {
+    std::fprintf(stderr, "sspc: warning: %s looks left by an interrupted run of an older sspc; remove it if no sspc is "
+                 "running\n", path.c_str());
+  }
+}
+
+}  // namespace
+
 Status check_outputs(const std::vector<std::string>& inputs,
                      const std::vector<std::string>& outputs, bool force) {
   namespace fs = std::filesystem;
@@ -303,6 +320,7 @@ Status check_outputs(const std::vector<std::string>& inputs,
     if (::access(dir.c_str(), W_OK | X_OK) != 0) {
       return io_error(out + ": cannot write in " + dir.string() + ": " + std::strerror(errno));
     }
+    report_stale_temporaries(dir);
     for (std::size_t j = 0; j < i; ++j) {
       std::error_code a, b;
       if (fs::weakly_canonical(outputs[j], a) == fs::weakly_canonical(path, b)) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -91,7 +92,12 @@ int create_registered(const std::string& prefix, bool folder, std::string& name,
     if (lstat(name.c_str(), &st) == 0) continue;
     slot = register_temporary(name, folder);
     const int fd = folder ? mkdir(name.c_str(), 0700) : ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd >= 0) return fd;
+    if (fd >= 0) {
+      // Held while the file is open: a later run that can take it knows its writer is gone
+      // (remove_stale_temporaries). A brand-new file's lock is free.
+      if (!folder) flock(fd, LOCK_EX | LOCK_NB);
+      return fd;
+    }
     const int error = errno;
     unregister_temporary(slot);
     slot = -1;
@@ -238,13 +244,8 @@ Status AtomicFileWriter::commit() {
   if (fchmod(fileno(file_), 0666 & ~mask) != 0) {
     // Not fatal: the data is intact, only its permissions stay 0600.
   }
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (rc != 0) {
-    const std::string why = errno_text();
-    abandon();
-    return io_error(target_.string() + ": close failed: " + why);
-  }
+  // Renamed while still open, so that its lock holds until it is the target: closed first, a
+  // concurrent run's remove_stale_temporaries could take it for an interrupted run's.
   std::error_code ec;
   std::filesystem::rename(temp_, target_, ec);
   if (ec) {
@@ -254,6 +255,9 @@ Status AtomicFileWriter::commit() {
   temp_.clear();
   unregister_temporary(slot_);
   slot_ = -1;
+  const int rc = std::fclose(file_);
+  file_ = nullptr;
+  if (rc != 0) return io_error(target_.string() + ": close failed: " + errno_text());
   return Status();
 }
 
@@ -303,6 +307,19 @@ Status StagingDirectory::open(const std::filesystem::path& dir) {
     return io_error(where.string() + ": cannot create a temporary folder: " + errno_text());
   }
   dir_ = name;
+  // The owner's lock, held until the folder is removed: a later run that can take it knows the
+  // run that made the folder is gone, whatever killed it (remove_stale_temporaries).
+  const std::string owner = (dir_ / kOwnerName).string();
+  lock_fd_ = ::open(owner.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (lock_fd_ < 0 || flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    const std::string why = errno_text();
+    abandon();
+    return io_error(where.string() + ": cannot lock a temporary folder: " + why);
+  }
+  const std::string pid = std::to_string(getpid()) + "\n";
+  if (::write(lock_fd_, pid.data(), pid.size()) < 0) {
+    // Informative only: the lock is what marks the owner.
+  }
   return Status();
 }
 
@@ -334,9 +351,58 @@ void StagingDirectory::abandon() {
     std::filesystem::remove_all(dir_, ec);
     dir_.clear();
   }
+  if (lock_fd_ >= 0) {
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+  }
   staged_.clear();
   unregister_temporary(slot_);
   slot_ = -1;
+}
+
+namespace {
+
+// Whether `path`'s lock can be taken: nobody holds it, so the process that made it is gone. The
+// lock is released again at once (closing the descriptor).
+bool lock_is_free(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) return false;
+  const bool free = flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);
+  return free;
+}
+
+bool is_temporary_file_name(const std::string& name) {
+  // "." + target + ".tmp-" + six characters (AtomicFileWriter::open).
+  constexpr std::string_view kTag = ".tmp-";
+  return name.size() > 1 + kTag.size() + 6 && name[0] == '.' &&
+         name.compare(name.size() - 6 - kTag.size(), kTag.size(), kTag) == 0;
+}
+
+}  // namespace
+
+StaleTemporaries remove_stale_temporaries(const std::filesystem::path& dir, std::chrono::seconds min_age) {
+  StaleTemporaries found;
+  std::error_code ec;
+  const auto now = std::filesystem::file_time_type::clock::now();
+  for (std::filesystem::directory_iterator it(dir.empty() ? "." : dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::filesystem::path& path = it->path();
+    const std::string name = path.filename().string();
+    const bool folder = name.starts_with(".sspc-staging-") && it->is_directory(ec);
+    const bool file = !folder && is_temporary_file_name(name) && it->is_regular_file(ec);
+    if (!folder && !file) continue;
+    const auto modified = std::filesystem::last_write_time(path, ec);
+    if (ec || now - modified < min_age) continue;  // perhaps being made this moment
+    if (folder && !std::filesystem::exists(path / StagingDirectory::kOwnerName, ec)) {
+      found.unknown.push_back(path);  // a folder of an sspc that did not lock its folders
+      continue;
+    }
+    if (!lock_is_free(folder ? path / StagingDirectory::kOwnerName : path)) continue;  // in use
+    std::error_code removed;
+    std::filesystem::remove_all(path, removed);
+    if (!removed) found.removed.push_back(path);
+  }
+  return found;
 }
 
 Status write_file_atomically(const std::filesystem::path& target, std::span<const std::byte> bytes) {

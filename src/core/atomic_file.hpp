@@ -9,6 +9,7 @@
 // write instead of dying of it.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -93,11 +94,28 @@ class StagingDirectory {
   Status commit();
   void abandon();
 
+  // The file in the folder whose lock its owner holds (remove_stale_temporaries).
+  static constexpr const char* kOwnerName = ".owner";
+
  private:
   std::filesystem::path dir_;
   std::vector<std::pair<std::filesystem::path, std::filesystem::path>> staged_;  // (staged, target)
   int slot_ = -1;
+  int lock_fd_ = -1;
 };
+
+// What a run left in `dir` when it was killed beyond a handler's reach (SIGKILL: the OOM
+// killer's signal): AtomicFileWriter temporaries and StagingDirectory folders (a memory-limited
+// encode's staged tiles, about 1.8 times its input). Each holds a lock while its process lives,
+// so one whose lock is free, and that is at least `min_age` old (not being made this moment), is
+// removed. A staging folder without the owner's file (made by an sspc before the locks) is only
+// named, for the caller to report.
+struct StaleTemporaries {
+  std::vector<std::filesystem::path> removed;
+  std::vector<std::filesystem::path> unknown;
+};
+StaleTemporaries remove_stale_temporaries(const std::filesystem::path& dir,
+                                          std::chrono::seconds min_age = std::chrono::seconds(60));
 
 // Installs handlers for SIGINT, SIGTERM and SIGHUP that remove the open writers' temporary files
 // and then end the process as the signal would have; ignores SIGXFSZ, so that writing past a

@@ -261,6 +261,7 @@ StatusOr<TiledEncoder> TiledEncoder::plan_file(const std::filesystem::path& inpu
     return invalid_argument("a tiled encode needs tile_points or memory_limit > 0");
   }
   const auto start = std::chrono::steady_clock::now();
+  remove_stale_temporaries(work_dir);  // a killed run's staged tiles, about 1.8 times its input
   auto impl = Impl::make(options);
   SSPC_ASSIGN_OR_RETURN(impl->store, codec::TileStore::spilled(input, read, {options.tile_points, options.memory_limit},
                                                                static_cast<std::uint8_t>(options.attributes), work_dir));

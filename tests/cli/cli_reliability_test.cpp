@@ -4,8 +4,11 @@
 
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <zlib.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -284,6 +287,38 @@ TEST(CliReliability, AMemoryLimitEncodesTheBytesOfTheCloudInMemory) {
   ASSERT_EQ(in_memory.exit_code, 0) << in_memory.err;
   EXPECT_EQ(slurp(a), slurp(b));
   EXPECT_EQ(test::count_files(dir.path()), 5u) << "third.ply, a.sspc, b.sspc, stdout.txt and stderr.txt";
+}
+
+// SIGKILL (the OOM killer's) of an encode under --memory-limit left its staged tiles (about 1.8
+// times the input) and an empty temporary beside the output, and later runs never removed them:
+// the next command writing there removes them once their owner is gone, and says so.
+TEST(CliReliability, AKilledEncodesLeftoversAreRemovedByTheNextRun) {
+  test::TempDir dir;
+  const std::string model = (dir.path() / "m.sspc").string();
+  const std::string command = std::string(SSPC_CLI_PATH) + " encode -q " + bunny() + " " + model +
+                              " -l 5 --memory-limit 0.5G --tile-points 3000 >/dev/null 2>&1 & echo $!";
+  std::FILE* shell = popen(command.c_str(), "r");
+  ASSERT_NE(shell, nullptr);
+  long pid = 0;
+  ASSERT_EQ(std::fscanf(shell, "%ld", &pid), 1);
+  pclose(shell);
+  auto leftovers = [&] {
+    std::size_t n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path())) n += e.path().filename().string()[0] == '.';
+    return n;
+  };
+  for (int wait = 0; wait < 600 && leftovers() < 2; ++wait) usleep(10000);  // the staging folder and the temporary
+  ASSERT_EQ(kill(static_cast<pid_t>(pid), SIGKILL), 0);
+  usleep(200000);
+  ASSERT_GE(leftovers(), 1u) << "the encode finished before it could be killed";
+  // Aged past the minute within which a temporary may be being made.
+  for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
+    std::filesystem::last_write_time(e.path(), std::filesystem::file_time_type::clock::now() - std::chrono::minutes(5));
+  }
+  const CliRun again = sspc(dir, "encode -q " + bunny() + " " + model + " -l 9", kLimit);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.err.find("left by an interrupted run"), std::string::npos) << again.err;
+  EXPECT_EQ(leftovers(), 0u);
 }
 
 }  // namespace

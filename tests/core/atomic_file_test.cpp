@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -163,6 +164,45 @@ TEST(AtomicFile, ASignalAtAnyMomentLeavesNoTemporary) {
     ASSERT_TRUE(WIFSIGNALED(status)) << status;
     EXPECT_EQ(test::count_files(dir.path()), 0u) << "trial " << trial;
   }
+}
+
+// SIGKILL (the OOM killer's signal) runs no handler: what the killed run was writing stays. A
+// later run removes what it can lock (its owner is gone), never a live writer's or folder's, and
+// names a staging folder that has no owner's file.
+TEST(StaleTemporaries, AKilledRunsAreRemovedAndLiveOnesKept) {
+  test::TempDir dir;
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    AtomicFileWriter w;
+    StagingDirectory staging;
+    if (!w.open(dir.path() / "model.sspc").ok() || !w.write("half").ok() || !staging.open(dir.path()).ok()) _exit(3);
+    { std::ofstream(staging.stage(dir.path() / "tile")) << "staged points"; }
+    raise(SIGKILL);
+    _exit(4);  // not reached
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status)) << status;
+  ASSERT_EQ(test::count_files(dir.path()), 2u) << "the temporary and the staging folder";
+
+  AtomicFileWriter live;
+  ASSERT_TRUE(live.open(dir.path() / "live.sspc").ok());
+  StagingDirectory live_staging;
+  ASSERT_TRUE(live_staging.open(dir.path()).ok());
+  std::filesystem::create_directory(dir.path() / ".sspc-staging-oldsspc");  // no owner's file
+  // Younger than a minute: perhaps being made this moment, so kept.
+  EXPECT_TRUE(remove_stale_temporaries(dir.path()).removed.empty());
+  const StaleTemporaries found = remove_stale_temporaries(dir.path(), std::chrono::seconds(0));
+  ASSERT_EQ(found.removed.size(), 2u);
+  for (const auto& path : found.removed) EXPECT_FALSE(std::filesystem::exists(path)) << path;
+  ASSERT_EQ(found.unknown.size(), 1u);
+  EXPECT_EQ(found.unknown[0].filename(), ".sspc-staging-oldsspc");
+  EXPECT_TRUE(std::filesystem::exists(live.temporary_path()));
+  ASSERT_TRUE(live.write("whole").ok());
+  ASSERT_TRUE(live.commit().ok());
+  EXPECT_EQ(slurp(dir.path() / "live.sspc"), "whole");
+  EXPECT_EQ(test::count_files(dir.path()), 3u) << "live.sspc, the live staging folder, the old sspc's folder";
 }
 
 // A TemporaryFile: its prefix and extension, a name of its own, gone when it is destroyed.
