@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "sspc/encoder.hpp"
@@ -20,7 +21,7 @@ namespace sspc::cli {
 namespace {
 
 struct EncodeCliOptions {
-  std::string input;
+  std::vector<std::string> inputs;
   std::string output;
   int level = 5;
   int patch_points = 0;
@@ -99,7 +100,18 @@ int encode_stages(const PointCloud& cloud, NormalMode mode) {
 
 int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (Status s = check_json_and_stdout(o.json, {o.output}); !s.ok()) return report_usage_error(s);
-  if (Status s = check_outputs({o.input}, {o.output}, o.force); !s.ok()) return report_failure(s);
+  if (o.inputs.size() > 1 && std::count_if(o.inputs.begin(), o.inputs.end(), is_stdio) > 0) {
+    return report_usage_error(invalid_argument("'-' (stdin) cannot be one of several inputs"));
+  }
+  std::vector<std::filesystem::path> files{std::filesystem::path(o.inputs.front())};
+  if (!is_stdio(o.inputs.front())) {
+    auto listed = input_files(o.inputs);
+    if (!listed.ok()) return report_failure(listed.status());
+    files = std::move(*listed);
+  }
+  std::vector<std::string> names;
+  for (const auto& file : files) names.push_back(file.string());
+  if (Status s = check_outputs(names, {o.output}, o.force); !s.ok()) return report_failure(s);
   if (!is_stdio(o.output) && format_from_extension(o.output) != PointCloudFormat::kAuto) {
     // Every reader would take the model for a point cloud of that format and refuse it.
     return report_usage_error(invalid_argument(o.output + ": a compressed model under a point-cloud extension ('" +
@@ -133,22 +145,25 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
   if (o.memory_limit) {
     auto limit = parse_size(*o.memory_limit);
     if (!limit.ok()) return report_usage_error(limit.status());
-    if (is_stdio(o.input)) {
+    if (is_stdio(o.inputs.front())) {
       return report_usage_error(invalid_argument("--memory-limit reads its input in passes: give a file, not stdin"));
     }
     options.memory_limit = *limit;
   }
   ReadOptions read;
   read.progress = progress.get();
-  const std::string input_name = is_stdio(o.input) ? kStdinName : o.input;
+  const std::string input_name = is_stdio(names.front())  ? std::string(kStdinName)
+                                 : names.size() == 1      ? names.front()
+                                                          : names.front() + " and " + std::to_string(names.size() - 1) +
+                                                           (names.size() == 2 ? " more file" : " more files");
   StatusOr<EncodeStats> stats = invalid_argument("nothing encoded");
   Status written;
   double read_seconds = 0;  // with --memory-limit the passes over the input are the plan's
   if (options.memory_limit > 0) {
-    // Tiles sized to the limit, the input read in passes and never held (TiledEncoder::plan_file).
+    // Tiles sized to the limit, the input read in passes and never held (TiledEncoder::plan_files).
     written = write_output(o.output, ".sspc", [&](const std::filesystem::path& path) {
       const std::filesystem::path dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
-      auto tiled = TiledEncoder::plan_file(o.input, options, read, dir);
+      auto tiled = TiledEncoder::plan_files(files, options, read, dir);
       if (!tiled.ok()) return tiled.status().with_context(input_name);
       if (!tiled->dropped_fields().empty()) {
         std::fprintf(stderr, "sspc: warning: %s: not kept in the .sspc model: %s\n", input_name.c_str(),
@@ -158,7 +173,7 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
       return stats.ok() ? Status() : stats.status().with_context(input_name);
     });
   } else {
-    auto cloud = read_cloud(o.input, read);
+    auto cloud = read_clouds(files, read);
     if (!cloud.ok()) return report_failure(cloud.status());
     // The fields the codec does not keep, or was told not to, are named, not lost silently.
     if (const std::string dropped = drop_unkept_attributes(*cloud, *keep); !dropped.empty()) {
@@ -179,7 +194,8 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
 
   if (o.json) {
     Json json = json_report("encode");
-    json["input"] = o.input;
+    json["input"] = o.inputs.front();
+    json["input_files"] = files.size();
     json["output"] = o.output;
     json["level"] = o.level;
     json["points"] = stats->points;
@@ -237,8 +253,15 @@ int run_encode(const EncodeCliOptions& o, const GlobalOptions& global) {
 Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   auto o = std::make_shared<EncodeCliOptions>();
   CLI::App* app = root.add_subcommand("encode", "Compress a point cloud into an .sspc file");
-  app->add_option("input", o->input, "Point cloud to read (PLY, LAS, XYZ/PTS, PCD; '-' reads stdin)")->required();
-  app->add_option("output", o->output, "Compressed model to write (.sspc; '-' writes stdout)")->required();
+  // One positional list, the last the output: CLI11 gives a list positional every argument, the
+  // output's too.
+  app->add_option("input", o->inputs,
+                  "Point clouds to read (PLY, LAS, XYZ/PTS, PCD; '-' reads stdin), then the compressed model to write "
+                  "(.sspc; '-' writes stdout). Several files, a folder or a quoted pattern ('tiles/*.las') are read as "
+                  "one cloud, in name order")
+      ->type_name("IN... OUT")
+      ->required()
+      ->expected(2, -1);
   app->add_option("-l,--level", o->level, "0 (most detail) .. 9 (smallest file)")
       ->check(CLI::Range(0, 9).description(""))
       ->type_name("0..9")
@@ -309,7 +332,11 @@ Command add_encode_command(CLI::App& root, const GlobalOptions& global) {
   app->add_flag("-f,--force", o->force, "Overwrite an existing output file");
   app->add_flag("--json", o->json, "Machine-readable statistics on stdout (keys: docs/CLI.md)");
   app->footer("Example: sspc encode scan.ply model.sspc --level 7   (or: cat scan.ply | sspc encode - model.sspc)");
-  return {app, [o, &global] { return run_encode(*o, global); }};
+  return {app, [o, &global] {
+            o->output = o->inputs.back();
+            o->inputs.pop_back();
+            return run_encode(*o, global);
+          }};
 }
 
 }  // namespace sspc::cli

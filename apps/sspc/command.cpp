@@ -220,6 +220,15 @@ StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options) {
   return cloud;
 }
 
+StatusOr<PointCloud> read_clouds(const std::vector<std::filesystem::path>& paths, ReadOptions options) {
+  if (paths.size() == 1) return read_cloud(paths.front().string(), options);
+  std::vector<std::string> warnings;
+  options.warnings = &warnings;
+  StatusOr<PointCloud> cloud = read_point_clouds(paths, options);
+  for (const std::string& warning : warnings) std::fprintf(stderr, "sspc: warning: %s\n", warning.c_str());
+  return cloud;
+}
+
 std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global) {
   if (global.quiet) return std::make_unique<TerminalProgress>(stderr, false);
   return std::make_unique<TerminalProgress>(stderr);

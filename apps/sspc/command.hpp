@@ -106,6 +106,9 @@ std::FILE* summary_stream(const std::vector<std::string>& outputs);
 // printed as "sspc: warning: ..." on stderr, after the progress line and before any error. "-"
 // reads stdin, its format found from its first bytes.
 StatusOr<PointCloud> read_cloud(const std::string& path, ReadOptions options);
+// Several files read as one cloud (read_point_clouds), their warnings printed the same way; one
+// file (or "-"): read_cloud.
+StatusOr<PointCloud> read_clouds(const std::vector<std::filesystem::path>& paths, ReadOptions options);
 
 // A progress reporter that draws on stderr only when it is a terminal and --quiet is off.
 std::unique_ptr<TerminalProgress> make_progress(const GlobalOptions& global);

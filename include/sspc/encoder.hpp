@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <optional>
 #include <string>
 
@@ -124,5 +125,10 @@ StatusOr<EncodeStats> encode(PointCloud cloud, const std::filesystem::path& outp
 // hidden folder beside `output`, removed at the end); otherwise read_point_cloud, then encode().
 StatusOr<EncodeStats> encode_file(const std::filesystem::path& input, const std::filesystem::path& output,
                                   const EncodeOptions& options = {}, const ReadOptions& read = {});
+// Several files as one cloud (a survey's tiles in one CRS; sspc/io.hpp's read_point_clouds):
+// the same model as encode_file of one file holding their points in the order given, read in
+// passes under options.memory_limit.
+StatusOr<EncodeStats> encode_files(std::span<const std::filesystem::path> inputs, const std::filesystem::path& output,
+                                   const EncodeOptions& options = {}, const ReadOptions& read = {});
 
 }  // namespace sspc

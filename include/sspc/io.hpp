@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
@@ -84,6 +85,41 @@ StatusOr<PointCloud> read_point_cloud(std::span<const std::byte> data, std::stri
 Status read_point_cloud_chunks(const std::filesystem::path& path, std::size_t chunk_points,
                                const std::function<Status(PointCloud&&)>& sink,
                                const ReadOptions& options = {});
+
+// --- Several files as one cloud (a survey's tiles) -----------------------------------------------
+
+// The files named by command-line arguments: a file as it is; a folder's point-cloud files (by
+// extension), sorted by name; a pattern with * ? or [ that names no file, expanded by glob(3),
+// sorted. kInvalidArgument for a folder or pattern with no file, and for a file named twice.
+StatusOr<std::vector<std::filesystem::path>> input_files(std::span<const std::string> args);
+
+// The one origin of a set of files, from each file's own origin, local bounds and metadata (given
+// in order): the files' origin when they share one (their positions then stay bit for bit),
+// else the centre of their union rounded as a single file's reader rounds it (the largest power
+// of ten not above the union's extent), so that the set keeps a single file's precision.
+// origin() is kInvalidArgument, naming the file, when the files' CRSs differ.
+class FileSetOrigin {
+ public:
+  void add(const std::filesystem::path& file, const Vec3d& origin, const Box3f& local, const CloudMetadata& metadata);
+  StatusOr<Vec3d> origin() const;
+
+ private:
+  std::size_t files_ = 0;
+  bool same_origin_ = true;
+  Vec3d first_origin_ = Vec3d::Zero();
+  std::string first_file_, crs_differs_, crs_wkt_;
+  std::vector<LasRecord> crs_records_;
+  Vec3d world_min_ = Vec3d::Constant(std::numeric_limits<double>::infinity());
+  Vec3d world_max_ = Vec3d::Constant(-std::numeric_limits<double>::infinity());
+};
+
+// Re-expresses `cloud`'s positions about `origin` (in double, narrowed once to float32).
+void move_to_origin(PointCloud& cloud, const Vec3d& origin);
+
+// The files' points one file after another, in the order given, about the set's origin
+// (FileSetOrigin), with the metadata of the first and the per-point arrays every file has. One
+// file: read_point_cloud.
+StatusOr<PointCloud> read_point_clouds(std::span<const std::filesystem::path> paths, const ReadOptions& options = {});
 
 // The readers over bytes in memory; `name` is used in error messages.
 StatusOr<PointCloud> read_ply(std::span<const std::byte> data, std::string_view name);

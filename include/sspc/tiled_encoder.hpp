@@ -35,6 +35,10 @@ class TiledEncoder {
   // (tile_points_for_memory). The same bytes as plan(read_point_cloud(input)).
   static StatusOr<TiledEncoder> plan_file(const std::filesystem::path& input, const EncodeOptions& options,
                                           const ReadOptions& read = {}, const std::filesystem::path& work_dir = ".");
+  // Several files as one cloud, read in the same passes one after another (TileStore::spilled):
+  // the bytes of plan(read_point_clouds(inputs)).
+  static StatusOr<TiledEncoder> plan_files(std::span<const std::filesystem::path> inputs, const EncodeOptions& options,
+                                           const ReadOptions& read = {}, const std::filesystem::path& work_dir = ".");
 
   TiledEncoder(TiledEncoder&&) noexcept;
   TiledEncoder& operator=(TiledEncoder&&) noexcept;

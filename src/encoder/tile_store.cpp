@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -165,47 +166,85 @@ class MemoryStore final : public TileStore {
 
 class SpillStore final : public TileStore {
  public:
-  Status build(const std::filesystem::path& input, const ReadOptions& read, TileSize size,
+  Status build(std::span<const std::filesystem::path> inputs, const ReadOptions& read, TileSize size,
                std::uint8_t channels, const std::filesystem::path& work_dir, std::size_t chunk_points) {
-    const std::string name = input.string();
-    // Pass 1: the bounds, the count and what every point carries.
-    bool first = true;
+    // Pass 1: the bounds, the count and what every point carries, file by file; then the set's
+    // origin (FileSetOrigin), about which every later pass moves each file's chunks.
     std::vector<std::string> dropped;
-    const auto learn = [&](PointCloud&& chunk) -> Status {
-      SSPC_RETURN_IF_ERROR(chunk.validate());
-      if (first) {
-        input_.has_normals = chunk.has_normals();
-        input_.channels = static_cast<std::uint8_t>(channels_present(chunk) & channels);
-        input_.origin = chunk.origin;
-        input_.metadata = chunk.metadata;
-        first = false;
-      }
-      input_.points += chunk.size();
-      for (const Vec3f& p : chunk.positions) input_.bounds.extend(p);
-      // Each name once, in the order first seen.
-      const std::string names = drop_unkept_attributes(chunk, channels);
-      for (std::size_t at = 0; at < names.size();) {
-        const std::size_t end = std::min(names.find(", ", at), names.size());
-        std::string field = names.substr(at, end - at);
-        if (std::find(dropped.begin(), dropped.end(), field) == dropped.end()) dropped.push_back(std::move(field));
-        at = end + 2;
+    FileSetOrigin set;
+    std::vector<Vec3d> origins;
+    std::vector<Box3f> local_bounds;
+    for (const std::filesystem::path& input : inputs) {
+      bool first = true;
+      Box3f bounds;
+      CloudMetadata metadata;
+      const auto learn = [&](PointCloud&& chunk) -> Status {
+        SSPC_RETURN_IF_ERROR(chunk.validate());
+        if (first) {
+          const auto present = static_cast<std::uint8_t>(channels_present(chunk) & channels);
+          if (origins.empty()) {
+            input_.has_normals = chunk.has_normals();
+            input_.channels = present;
+            input_.metadata = chunk.metadata;
+          }
+          // The arrays every file has (read_point_clouds keeps the same).
+          input_.has_normals = input_.has_normals && chunk.has_normals();
+          input_.channels = static_cast<std::uint8_t>(input_.channels & present);
+          origins.push_back(chunk.origin);
+          metadata = chunk.metadata;
+          first = false;
+        }
+        input_.points += chunk.size();
+        for (const Vec3f& p : chunk.positions) bounds.extend(p);
+        // Each name once, in the order first seen.
+        const std::string names = drop_unkept_attributes(chunk, channels);
+        for (std::size_t at = 0; at < names.size();) {
+          const std::size_t end = std::min(names.find(", ", at), names.size());
+          std::string field = names.substr(at, end - at);
+          if (std::find(dropped.begin(), dropped.end(), field) == dropped.end()) dropped.push_back(std::move(field));
+          at = end + 2;
+        }
+        return Status();
+      };
+      SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, learn, read));
+      if (first) return invalid_argument(input.string() + ": no points");
+      set.add(input, origins.back(), bounds, metadata);
+      local_bounds.push_back(bounds);
+    }
+    SSPC_ASSIGN_OR_RETURN(input_.origin, set.origin());
+    // Moving to another origin is monotonic per axis, so each file's moved bounds are its
+    // bounds' corners moved.
+    for (std::size_t f = 0; f < inputs.size(); ++f) {
+      PointCloud corners;
+      corners.origin = origins[f];
+      corners.positions = {local_bounds[f].min(), local_bounds[f].max()};
+      move_to_origin(corners, input_.origin);
+      input_.bounds.extend(corners.positions[0]);
+      input_.bounds.extend(corners.positions[1]);
+    }
+    const auto each_chunk = [&](const std::function<Status(PointCloud&&, const std::string&)>& sink) -> Status {
+      for (const std::filesystem::path& input : inputs) {
+        const std::string name = input.string();
+        SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, [&](PointCloud&& chunk) {
+          move_to_origin(chunk, input_.origin);
+          return sink(std::move(chunk), name);
+        }, read));
       }
       return Status();
     };
-    SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, learn, read));
     for (const std::string& field : dropped) input_.dropped += (input_.dropped.empty() ? "" : ", ") + field;
     std::uint64_t tile_points = size.points;
     if (tile_points == 0) {
       auto allowed = tile_points_for_memory(size.memory_limit, input_.points);
-      if (!allowed.ok()) return Status(allowed.status().code(), name + ": " + allowed.status().message());
+      if (!allowed.ok()) return Status(allowed.status().code(), inputs.front().string() + ": " + allowed.status().message());
       tile_points = *allowed;
     }
     // Pass 2: the counts, then the plan.
     TilePlanner planner(input_.bounds);
-    SSPC_RETURN_IF_ERROR(read_point_cloud_chunks(input, chunk_points, [&](PointCloud&& chunk) -> Status {
+    SSPC_RETURN_IF_ERROR(each_chunk([&](PointCloud&& chunk, const std::string&) -> Status {
       planner.add(chunk.positions);
       return Status();
-    }, read));
+    }));
     plan_ = planner.plan(tile_points);
     // Pass 3: each point to its tile's file, through a buffer per tile.
     columns_ = {input_.has_normals, input_.channels};
@@ -240,10 +279,10 @@ class SpillStore final : public TileStore {
       buffers[t].clear();
       return Status();
     };
-    const auto spill = [&](PointCloud&& chunk) -> Status {
+    const auto spill = [&](PointCloud&& chunk, const std::string& name) -> Status {
       for (std::size_t i = 0; i < chunk.size(); ++i) {
         const std::uint32_t t = plan_.tile_of(chunk.positions[i]);
-        if (t == kNoTile || chunk.has_normals() != input_.has_normals ||
+        if (t == kNoTile || (input_.has_normals && !chunk.has_normals()) ||
             (channels_present(chunk) & input_.channels) != input_.channels) {
           return corrupt(name + ": the file changed while it was read (its passes disagree)");
         }
@@ -255,7 +294,7 @@ class SpillStore final : public TileStore {
       }
       return Status();
     };
-    Status spilled = read_point_cloud_chunks(input, chunk_points, spill, read);
+    Status spilled = each_chunk(spill);
     for (std::size_t t = 0; t < plan_.size() && spilled.ok(); ++t) spilled = flush(t);
     for (std::size_t t = 0; t < plan_.size() && spilled.ok(); ++t) {
       if (handles[t] != nullptr && std::fclose(handles[t]) != 0) {
@@ -263,7 +302,8 @@ class SpillStore final : public TileStore {
       }
       handles[t] = nullptr;
       if (spilled.ok() && written[t] != plan_.points[t]) {
-        spilled = corrupt(name + ": the file changed while it was read (its passes disagree)");
+        spilled = corrupt(inputs.front().string() + (inputs.size() > 1 ? " and the files after it" : "") +
+                          ": changed while read (the passes disagree)");
       }
     }
     close_all();
@@ -307,12 +347,13 @@ std::unique_ptr<TileStore> TileStore::in_memory(PointCloud cloud, std::uint64_t 
   return std::make_unique<MemoryStore>(std::move(cloud), tile_points, channels);
 }
 
-StatusOr<std::unique_ptr<TileStore>> TileStore::spilled(const std::filesystem::path& input, const ReadOptions& read,
-                                                        TileSize size, std::uint8_t channels,
+StatusOr<std::unique_ptr<TileStore>> TileStore::spilled(std::span<const std::filesystem::path> inputs,
+                                                        const ReadOptions& read, TileSize size, std::uint8_t channels,
                                                         const std::filesystem::path& work_dir,
                                                         std::size_t chunk_points) {
+  if (inputs.empty()) return invalid_argument("no input file");
   auto store = std::make_unique<SpillStore>();
-  SSPC_RETURN_IF_ERROR(store->build(input, read, size, channels, work_dir, std::max<std::size_t>(chunk_points, 1)));
+  SSPC_RETURN_IF_ERROR(store->build(inputs, read, size, channels, work_dir, std::max<std::size_t>(chunk_points, 1)));
   return std::unique_ptr<TileStore>(std::move(store));
 }
 

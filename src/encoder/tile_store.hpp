@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 
 #include "encoder/tiling.hpp"
@@ -53,7 +54,9 @@ class TileStore {
     std::uint64_t points = 0;
     std::uint64_t memory_limit = 0;
   };
-  static StatusOr<std::unique_ptr<TileStore>> spilled(const std::filesystem::path& input, const ReadOptions& read,
+  // Several files are read one after another as one cloud, about one origin (FileSetOrigin in
+  // sspc/io.hpp), with the per-point arrays every file has: the points of read_point_clouds.
+  static StatusOr<std::unique_ptr<TileStore>> spilled(std::span<const std::filesystem::path> inputs, const ReadOptions& read,
                                                       TileSize size, std::uint8_t channels,
                                                       const std::filesystem::path& work_dir,
                                                       std::size_t chunk_points = std::size_t{1} << 20);

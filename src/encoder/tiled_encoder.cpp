@@ -256,6 +256,13 @@ StatusOr<TiledEncoder> TiledEncoder::plan(PointCloud cloud, const EncodeOptions&
 
 StatusOr<TiledEncoder> TiledEncoder::plan_file(const std::filesystem::path& input, const EncodeOptions& options,
                                                const ReadOptions& read, const std::filesystem::path& work_dir) {
+  return plan_files(std::span(&input, 1), options, read, work_dir);
+}
+
+StatusOr<TiledEncoder> TiledEncoder::plan_files(std::span<const std::filesystem::path> inputs,
+                                                const EncodeOptions& options, const ReadOptions& read,
+                                                const std::filesystem::path& work_dir) {
+  if (inputs.empty()) return invalid_argument("no input file");
   SSPC_RETURN_IF_ERROR(check_options(options));
   if (options.tile_points == 0 && options.memory_limit == 0) {
     return invalid_argument("a tiled encode needs tile_points or memory_limit > 0");
@@ -263,11 +270,12 @@ StatusOr<TiledEncoder> TiledEncoder::plan_file(const std::filesystem::path& inpu
   const auto start = std::chrono::steady_clock::now();
   remove_stale_temporaries(work_dir);  // a killed run's staged tiles, about 1.8 times its input
   auto impl = Impl::make(options);
-  SSPC_ASSIGN_OR_RETURN(impl->store, codec::TileStore::spilled(input, read, {options.tile_points, options.memory_limit},
+  SSPC_ASSIGN_OR_RETURN(impl->store, codec::TileStore::spilled(inputs, read, {options.tile_points, options.memory_limit},
                                                                static_cast<std::uint8_t>(options.attributes), work_dir));
   const codec::TileInput& in = impl->store->input();
   if (Status size = check_size(in.points, in.bounds); !size.ok()) {
-    return Status(size.code(), input.string() + ": " + size.message());
+    return Status(size.code(), inputs.front().string() + (inputs.size() > 1 ? " and the files after it" : "") + ": " +
+                                   size.message());
   }
   SSPC_RETURN_IF_ERROR(impl->measure());
   impl->seconds_planning = seconds_since(start);
@@ -573,12 +581,17 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
 
 StatusOr<EncodeStats> encode_file(const std::filesystem::path& input, const std::filesystem::path& output,
                                   const EncodeOptions& options, const ReadOptions& read) {
+  return encode_files(std::span(&input, 1), output, options, read);
+}
+
+StatusOr<EncodeStats> encode_files(std::span<const std::filesystem::path> inputs, const std::filesystem::path& output,
+                                   const EncodeOptions& options, const ReadOptions& read) {
   if (options.memory_limit == 0) {
-    SSPC_ASSIGN_OR_RETURN(PointCloud cloud, read_point_cloud(input, read));
+    SSPC_ASSIGN_OR_RETURN(PointCloud cloud, read_point_clouds(inputs, read));
     return encode(std::move(cloud), output, options);
   }
   const std::filesystem::path dir = output.parent_path().empty() ? std::filesystem::path(".") : output.parent_path();
-  SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan_file(input, options, read, dir));
+  SSPC_ASSIGN_OR_RETURN(TiledEncoder tiled, TiledEncoder::plan_files(inputs, options, read, dir));
   return tiled.run(output, options.progress);
 }
 

@@ -321,5 +321,41 @@ TEST(CliReliability, AKilledEncodesLeftoversAreRemovedByTheNextRun) {
   EXPECT_EQ(leftovers(), 0u);
 }
 
+// A survey arrives as many tiles: a folder, a pattern or a list of files encode as one cloud, the
+// bytes of their concatenation as one file, whole or read in passes under --memory-limit.
+TEST(CliReliability, ManyFilesEncodeAsTheirConcatenation) {
+  test::TempDir dir;
+  const PointCloud bunny_points = read_bunny();
+  PointCloud third;
+  for (std::size_t i = 0; i < bunny_points.size(); i += 3) third.positions.push_back(bunny_points.positions[i]);
+  const std::string whole = write_cloud(dir, "whole.ply", third);
+  std::filesystem::create_directory(dir.path() / "tiles");
+  for (int k = 0; k < 4; ++k) {
+    const std::size_t n = third.size();
+    ASSERT_TRUE(write_ply(third.slice(n * static_cast<std::size_t>(k) / 4, n * static_cast<std::size_t>(k + 1) / 4),
+                          dir.path() / "tiles" / ("t" + std::to_string(k) + ".ply"))
+                    .ok());
+  }
+  const std::string tiles = (dir.path() / "tiles").string();
+  auto model = [&](const std::string& name) { return (dir.path() / name).string(); };
+  for (const std::string& limit : {std::string(), std::string(" --memory-limit 0.5G --tile-points 3000")}) {
+    SCOPED_TRACE(limit);
+    ASSERT_EQ(sspc(dir, "encode -q -f -l 5 " + whole + " " + model("whole.sspc") + limit, kLimit).exit_code, 0);
+    const CliRun folder = sspc(dir, "encode -f -l 5 " + tiles + " " + model("folder.sspc") + limit, kLimit);
+    ASSERT_EQ(folder.exit_code, 0) << folder.err;
+    EXPECT_NE(folder.out.find("t0.ply and 3 more files: " + std::to_string(third.size()) + " points"), std::string::npos)
+        << folder.err;
+    EXPECT_EQ(slurp(model("folder.sspc")), slurp(model("whole.sspc")));
+    const CliRun pattern = sspc(dir, "encode -q -f -l 5 '" + tiles + "/t*.ply' " + model("pattern.sspc") + limit, kLimit);
+    ASSERT_EQ(pattern.exit_code, 0) << pattern.err;
+    EXPECT_EQ(slurp(model("pattern.sspc")), slurp(model("whole.sspc")));
+  }
+  const CliRun none = sspc(dir, "encode '" + tiles + "/*.las' " + model("none.sspc"));
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_NE(none.err.find("no file matches"), std::string::npos) << none.err;
+  const CliRun with_stdin = sspc(dir, "encode - " + whole + " " + model("none.sspc"));
+  EXPECT_EQ(with_stdin.exit_code, 2) << with_stdin.err;
+}
+
 }  // namespace
 }  // namespace sspc
