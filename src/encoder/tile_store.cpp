@@ -236,7 +236,7 @@ class SpillStore final : public TileStore {
     std::uint64_t tile_points = size.points;
     if (tile_points == 0) {
       auto allowed = tile_points_for_memory(size.memory_limit, input_.points);
-      if (!allowed.ok()) return Status(allowed.status().code(), inputs.front().string() + ": " + allowed.status().message());
+      if (!allowed.ok()) return allowed.status();
       tile_points = *allowed;
     }
     // Pass 2: the counts, then the plan.

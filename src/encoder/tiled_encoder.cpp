@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
@@ -17,6 +17,7 @@
 #include "core/atomic_file.hpp"
 #include "core/mapped_file.hpp"
 #include "core/parallel.hpp"
+#include "core/resident_watch.hpp"
 #include "core/stopwatch.hpp"
 #include "encoder/encode_steps.hpp"
 #include "encoder/patch_centres.hpp"
@@ -549,6 +550,11 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
   const auto start = std::chrono::steady_clock::now();
   SSPC_RETURN_IF_ERROR(begin(output));
   progress_begin(progress, "tiles", tile_count(), "tiles");
+  ResidentWatch watch(impl_->options.memory_limit);
+  const auto stop = [this](Status status) {
+    impl_->stop_writing();  // the temporary file removed
+    return status;
+  };
   for (std::size_t t = 0; t < tile_count(); ++t) {
     // The job's bytes are freed once parsed, and its points once encoded, so that neither is
     // held while the result is added beside the model's growing records.
@@ -569,6 +575,9 @@ StatusOr<EncodeStats> TiledEncoder::run(const std::filesystem::path& output, Pro
     release_near_limit(limit, limit / 4);
     SSPC_RETURN_IF_ERROR(add(t, std::move(result)));
     release_near_limit(limit, limit / 8);
+    if (Status held = watch.check("tile " + std::to_string(t + 1) + " of " + std::to_string(tile_count())); !held.ok()) {
+      return stop(held);
+    }
     progress_advance(progress, 1);
   }
   progress_end(progress);

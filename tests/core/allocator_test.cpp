@@ -5,10 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 #include <thread>
 #include <vector>
+
+#include "core/resident_watch.hpp"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -94,6 +98,33 @@ TEST(Allocator, OneArenaReusesWhatAnotherThreadFreed) {
   worker.join();
   EXPECT_LT(grown, kBlocks * kSize / 4);
 #endif
+}
+
+// --memory-limit enforced: past its limit the watch's check fails and says by how much; under
+// it, or without one, it passes.
+TEST(ResidentWatch, FailsOncePastItsLimit) {
+  const std::uint64_t now = resident_bytes();
+  ASSERT_GT(now, 1u << 20);
+  ResidentWatch small(now / 2);
+  const Status past = small.check("tile 2 of 5");
+  ASSERT_FALSE(past.ok());
+  EXPECT_EQ(past.code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(past.message().find("by tile 2 of 5, past the memory limit of " + std::to_string((now / 2) >> 20) + " MiB"),
+            std::string::npos)
+      << past.message();
+  EXPECT_TRUE(ResidentWatch(now * 4 + (1u << 30)).check("tile 1 of 1").ok());
+  EXPECT_TRUE(ResidentWatch(0).check("tile 1 of 1").ok());
+  // The sampler sees a peak between checks: a block touched and freed is still counted.
+  release_freed_memory();  // what earlier tests kept would take the block without a fault
+  ResidentWatch watch(now * 4 + (1u << 30));
+  const std::uint64_t before = watch.peak();
+  {
+    std::vector<char> block(std::size_t{64} << 20, 1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(80));
+    EXPECT_NE(block[12345], 0);
+  }
+  release_freed_memory();
+  EXPECT_GE(watch.peak(), before + (std::uint64_t{48} << 20));
 }
 
 }  // namespace
