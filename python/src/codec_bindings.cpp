@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <filesystem>
@@ -132,6 +133,26 @@ unsigned attribute_bits(const py::object& value) {
 // A str or os.PathLike argument as a path.
 std::filesystem::path file_path(py::handle h) { return h.cast<std::filesystem::path>(); }
 
+bool is_path(const py::handle& h) { return py::isinstance<py::str>(h) || py::hasattr(h, "__fspath__"); }
+
+// A path, or a list or tuple of paths (several files read as one cloud): the files, expanded as
+// `sspc encode` expands its arguments (folders, patterns); nullopt for anything else (a cloud).
+std::optional<std::vector<std::filesystem::path>> input_paths(const py::object& given) {
+  std::vector<std::string> args;
+  if (is_path(given)) {
+    args.push_back(file_path(given).string());
+  } else if (py::isinstance<py::list>(given) || py::isinstance<py::tuple>(given)) {
+    const py::sequence items = py::reinterpret_borrow<py::sequence>(given);
+    if (items.size() == 0 || !std::all_of(items.begin(), items.end(), [](const py::handle& h) { return is_path(h); })) {
+      return std::nullopt;
+    }
+    for (const py::handle& item : items) args.push_back(file_path(item).string());
+  } else {
+    return std::nullopt;
+  }
+  return value_or_raise(input_files(args));
+}
+
 // resample='auto', 'off' or 1..4, as `sspc encode --resample` (EncodeOptions::resample).
 int resample_option(const py::object& value) {
   if (py::isinstance<py::str>(value)) {
@@ -191,16 +212,19 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
                         int intensity_step, std::uint64_t tile_points, std::uint64_t memory_limit, const std::string& normals,
                         const py::object& viewpoint,
                         std::uint64_t seed, int threads, const py::object& progress) {
-  // A file's path: encode_file reads it (in passes, never whole, under memory_limit).
-  const bool from_file = py::isinstance<py::str>(cloud_or_positions) || py::hasattr(cloud_or_positions, "__fspath__");
+  // Files: encode_files reads them (in passes, never whole, under memory_limit).
+  const std::optional<std::vector<std::filesystem::path>> inputs = input_paths(cloud_or_positions);
+  const bool from_file = inputs.has_value();
   PointCloud cloud;
-  std::filesystem::path input;  // converted while the GIL is held
   if (!from_file) {
+    if (memory_limit > 0) {
+      throw py::value_error("memory_limit reads the input in passes: give the cloud as a file's path (or a list of "
+                            "paths), not in memory, where it is held whole already");
+    }
     cloud = cloud_from(cloud_or_positions, "cloud");
     check(cloud.validate());
-  } else {
-    input = file_path(cloud_or_positions);
-    if (memory_limit == 0) cloud = value_or_raise(without_gil([&] { return read_point_cloud(input); }));
+  } else if (memory_limit == 0) {
+    cloud = value_or_raise(without_gil([&] { return read_point_clouds(*inputs); }));
   }
   EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
                                        full_spheres, keep_duplicates, resample, attributes, colour_quality, intensity_step,
@@ -214,7 +238,7 @@ py::object encode_cloud(const py::object& cloud_or_positions, const std::optiona
   const std::filesystem::path& output = path ? *path : scratch->path();
   const auto start = std::chrono::steady_clock::now();
   auto stats = without_gil([&] {
-    return from_file && memory_limit > 0 ? encode_file(input, output, options)
+    return from_file && memory_limit > 0 ? encode_files(*inputs, output, options)
                                          : encode(std::move(cloud), output, options);
   });
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -469,10 +493,9 @@ TiledEncoder plan_tiled(const py::object& cloud_or_positions, int level, std::op
   const EncodeOptions options = make_options(level, patch_points, epsilon, tau, step, position_bits, store_normals,
                                              full_spheres, keep_duplicates, resample, attributes, colour_quality,
                                              intensity_step, tile_points, memory_limit, normals, viewpoint, seed);
-  if (py::isinstance<py::str>(cloud_or_positions) || py::hasattr(cloud_or_positions, "__fspath__")) {
-    const std::filesystem::path input = file_path(cloud_or_positions);
+  if (const auto inputs = input_paths(cloud_or_positions)) {
     const std::filesystem::path dir = work_dir.is_none() ? std::filesystem::temp_directory_path() : file_path(work_dir);
-    return value_or_raise(without_gil([&] { return TiledEncoder::plan_file(input, options, {}, dir); }));
+    return value_or_raise(without_gil([&] { return TiledEncoder::plan_files(*inputs, options, {}, dir); }));
   }
   PointCloud cloud = cloud_from(cloud_or_positions, "cloud");
   return value_or_raise(without_gil([&] { return TiledEncoder::plan(std::move(cloud), options); }));
@@ -481,7 +504,8 @@ TiledEncoder plan_tiled(const py::object& cloud_or_positions, int level, std::op
 constexpr const char* kEncodeDoc = R"doc(
 Compresses a point cloud by its self-similarity (Hubo et al. 2007, §4), like `sspc encode`.
 
-cloud: a PointCloud, an (N, 3) position array (copied once: the encoder adds normals), or a file's path.
+cloud: a PointCloud, an (N, 3) position array (copied once: the encoder adds normals), a file's path,
+or a list of paths (files, folders, patterns such as 'tiles/*.las') read as one cloud in order.
 path: the .sspc file to write (atomically); the statistics of `sspc encode --json` come back as a
 dict (level, points, patches, codewords, bits_per_point, file_bytes, ..., seconds). None: the
 file's bytes come back instead (encoded through a temporary file, then read into one bytes object).
@@ -497,8 +521,8 @@ attributes ('all', 'none', or names among colour, intensity, classification, ret
 per-point attributes kept, each coded per patch; colour_quality 0..100 (100: lossless) and
 intensity_step 1..4096 (1: lossless) set their rates; tile_points > 0 encodes in octree tiles of
 at most that many points, each with a margin of its neighbours', joined into one model;
-memory_limit (bytes) with `cloud` a file's path reads it in passes, never whole, and encodes in
-tiles sized to the limit (sspc encode --memory-limit);
+memory_limit (bytes) with `cloud` a file's path (or several) reads it in passes, never whole, and
+encodes in tiles sized to the limit (sspc encode --memory-limit; ValueError for a cloud in memory);
 normals is 'auto' (the cloud's own if any, else estimated), 'keep' or 'estimate'; viewpoint
 orients estimated normals towards a point; seed; threads > 0 caps the worker threads.
 
@@ -517,7 +541,7 @@ void bind_tiled_encoder(py::module_& m) {
 A tiled encode split into jobs that may run elsewhere (sspc.distributed runs them on Dask).
 
 TiledEncoder(cloud, *, tile_points, level=5, ...) takes encode's keyword arguments; tile_points
-(> 0) bounds a tile's own points. `cloud` may be a file's path: it is then read in passes and
+(> 0) bounds a tile's own points. `cloud` may be a file's path (or a list of paths, read as one cloud): it is then read in passes and
 never held whole, its tiles waiting in files of a hidden folder in work_dir (default: the
 system's temporary folder), and memory_limit (bytes) sizes the tiles when tile_points is 0.
 job(t) gives tile t's self-contained input as bytes, which sspc.run_tile_job turns into the

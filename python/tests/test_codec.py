@@ -279,3 +279,26 @@ def test_resampled_points_inherit_their_stored_point_attributes(bumps):
     assert len(resampled) == m2 * len(stored)
     for name in ("colours", "intensity", "classification", "return_number", "number_of_returns"):
         np.testing.assert_array_equal(np.repeat(getattr(stored, name), m2, axis=0), getattr(resampled, name))
+
+
+def test_several_files_encode_as_their_concatenation(bunny, tmp_path):
+    positions = np.asarray(bunny.positions)
+    parts = np.array_split(positions, 3)
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for k, part in enumerate(parts):
+        sspc.write(sspc.PointCloud(part), tiles / f"t{k}.ply")
+    sspc.write(sspc.PointCloud(positions), tmp_path / "whole.ply")
+    whole = sspc.encode(tmp_path / "whole.ply", None, level=7)
+    assert sspc.encode([tiles / f"t{k}.ply" for k in range(3)], None, level=7) == whole
+    assert sspc.encode([str(tiles)], None, level=7) == whole  # a folder, its files by name
+    limited = sspc.encode(tmp_path / "whole.ply", None, level=7, tile_points=9000, memory_limit=1 << 30)
+    assert sspc.encode((str(tiles / "t*.ply"),), None, level=7, tile_points=9000, memory_limit=1 << 30) == limited
+    with pytest.raises(ValueError, match="no file matches"):
+        sspc.encode([str(tiles / "*.las")], None)
+
+
+def test_a_memory_limit_needs_a_file(bumps):
+    # The limit reads the input in passes; a cloud in memory is held whole already: refused, not ignored.
+    with pytest.raises(ValueError, match="memory_limit reads the input in passes"):
+        sspc.encode(bumps, None, memory_limit=1 << 30)
