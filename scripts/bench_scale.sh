@@ -112,7 +112,7 @@ row "tile-points $DASK_TILE_POINTS" autzen "$n_autzen" "$(field "$WORK/tiles.jso
 for round in $(seq "$ROUNDS"); do
   for workers in $WORKERS; do
     say "== autzen on Dask, $workers workers (round $round of $ROUNDS)"
-    timed "$py" -m sspc.distributed encode "$autzen" "$WORK/dask.sspc" -l "$LEVEL" --memory-limit "$LIMIT" \
+    timed "$py" -m sspc.distributed encode -f "$autzen" "$WORK/dask.sspc" -l "$LEVEL" --memory-limit "$LIMIT" \
       --tile-points "$DASK_TILE_POINTS" --workers "$workers" --json > "$WORK/dask.json"
     same=no
     if cmp -s "$WORK/dask.sspc" "$WORK/tiles.sspc"; then same=yes; fi
