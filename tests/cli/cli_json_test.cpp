@@ -23,7 +23,8 @@ struct DocumentedKeys {
   std::set<std::string> always;
 };
 
-// "### name" starts a section; "| `key` | type | unit | present | meaning |" rows list its keys.
+// "### name" starts a section, "## " ends it; "| `key` | type | unit | present | meaning |" rows
+// list its keys.
 std::map<std::string, DocumentedKeys> documented() {
   std::istringstream doc(slurp(SSPC_CLI_DOC));
   std::map<std::string, DocumentedKeys> sections;
@@ -32,6 +33,10 @@ std::map<std::string, DocumentedKeys> documented() {
   while (std::getline(doc, line)) {
     if (line.starts_with("### ")) {
       section = line.substr(4);
+      continue;
+    }
+    if (line.starts_with("## ")) {  // a chapter that is not the CLI's JSON (sspc.distributed's)
+      section.clear();
       continue;
     }
     if (section.empty() || !line.starts_with("| `")) continue;
