@@ -1,6 +1,7 @@
 // Tile jobs and results as bytes (encoder/tile_job.hpp).
 #include "encoder/tile_job.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -9,6 +10,7 @@
 #include "core/format_number.hpp"
 #include "format/checksum.hpp"
 #include "sspc/encoder.hpp"
+#include "sspc/neighbours.hpp"
 
 namespace sspc::codec {
 namespace {
@@ -40,6 +42,8 @@ bool all_finite(const std::vector<Vec3f>& v) {
   return true;
 }
 
+bool within_range(const Vec3f& v) { return (v.cast<double>().array().abs() <= kMaxCoordinate).all(); }
+
 // A rotation as a decoder would accept it: finite, orthonormal and proper within float rounding.
 bool is_rotation(const Eigen::Matrix3f& r) {
   if (!r.allFinite()) return false;
@@ -64,6 +68,11 @@ Status check_job(const TileJob& job) {
   if (!all_finite(job.part.positions) || !all_finite(job.part.normals)) {
     return corrupt("tile job: a point or normal is not finite");
   }
+  // As an encode's own input: within kMaxCoordinate (a span of 6e38 overflowed float in the
+  // points' ordering, found by the tile_result fuzzer).
+  if (Status range = check_coordinate_range(job.part.positions); !range.ok()) {
+    return corrupt("tile job: " + range.message());
+  }
   const double radius = static_cast<double>(b.patch_radius);
   if (!(b.spacing > 0) || !std::isfinite(b.spacing) || !(radius > 0) || !std::isfinite(radius)) {
     return corrupt("tile job: spacing and patch radius must be finite and positive");
@@ -77,7 +86,9 @@ Status check_job(const TileJob& job) {
   return Status();
 }
 
-Status check_result(const TileResult& result) {
+}  // namespace
+
+Status check_tile_result(const TileResult& result) {
   const EncodedModel& m = result.model;
   for (float v : {m.patch_radius, m.coverage_radius, m.spacing}) {
     if (!(v > 0) || !std::isfinite(v)) return corrupt("tile result: radii and spacing must be finite and positive");
@@ -86,18 +97,22 @@ Status check_result(const TileResult& result) {
     return corrupt("tile result: the coverage distance is not finite");
   }
   for (std::size_t c = 0; c < m.codebook.size(); ++c) {
-    if (!all_finite(m.codebook[c].points) || !all_finite(m.codebook[c].normals)) {
-      return corrupt("tile result: code word " + std::to_string(c) + " has a point or normal that is not finite");
+    if (!all_finite(m.codebook[c].points) || !all_finite(m.codebook[c].normals) ||
+        !std::all_of(m.codebook[c].points.begin(), m.codebook[c].points.end(), within_range)) {
+      return corrupt("tile result: code word " + std::to_string(c) +
+                     " has a point or normal that is not finite or beyond +-1e18");
     }
   }
   for (std::size_t k = 0; k < m.patches.size(); ++k) {
     const RigidTransform& t = m.patches[k].world_from_codeword;
-    if (!is_rotation(t.rotation) || !finite(t.translation)) {
+    if (!is_rotation(t.rotation) || !finite(t.translation) || !within_range(t.translation)) {
       return corrupt("tile result: patch " + std::to_string(k) + "'s transform is not a finite rotation");
     }
   }
   return Status();
 }
+
+namespace {
 
 class Writer {
  public:
@@ -312,7 +327,7 @@ StatusOr<TileResult> parse_tile_result(std::string_view bytes) {
   s.codebook.candidates_tested = tested;
   s.codebook.codeword_points = points;
   m.has_normals = true;
-  SSPC_RETURN_IF_ERROR(check_result(result));
+  SSPC_RETURN_IF_ERROR(check_tile_result(result));
   return result;
 }
 

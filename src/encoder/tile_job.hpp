@@ -43,6 +43,11 @@ struct TileResult {
   double max_coverage_distance = 0;
 };
 
+// The content checks a parsed result passes (finite points and translations within +-1e18,
+// rotations orthonormal and proper, radii positive); run_tile_job applies them to the result it
+// made too, so that a job whose points make a degenerate model fails with a message.
+Status check_tile_result(const TileResult& result);
+
 std::string serialise_tile_result(const TileResult& result);
 StatusOr<TileResult> parse_tile_result(std::string_view bytes);
 

@@ -523,6 +523,10 @@ StatusOr<std::string> run_parsed_tile_job(codec::TileJob job, std::uint32_t dige
   for (const codec::PatchInstance& p : result.model.patches) origins.push_back(p.region_centre());
   result.max_coverage_distance = codec::max_distance_to_centres(
       std::span(job.part.positions).first(job.build.core_points), origins);
+  if (Status made = codec::check_tile_result(result); !made.ok()) {
+    return invalid_argument("tile job " + std::to_string(job.tile) + ": its points make no valid model (" +
+                            made.message() + ")");
+  }
   return codec::serialise_tile_result(result);
 }
 
